@@ -1,0 +1,35 @@
+# Set-up and the two entry points of README.md. Every target installs what is missing first and
+# does nothing more when all is there (a second `make test` starts testing within seconds).
+SHELL := /bin/bash
+VENV := .venv
+PYTHON := $(VENV)/bin/python
+# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen.
+APT_PACKAGES := freefem++ libfreefem++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: setup system-packages paper test
+
+setup: system-packages $(VENV)/.installed
+
+system-packages:
+	@missing=""; \
+	for package in $(APT_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$package 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$package"; \
+	done; \
+	python3 -c "import ensurepip" 2>/dev/null || missing="$$missing python3-venv"; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+
+$(VENV)/.installed: pyproject.toml
+	python3 -m venv $(VENV)
+	$(VENV)/bin/pip install -q --upgrade pip
+	$(VENV)/bin/pip install -q -e ".[test]"
+	touch $@
+
+paper: setup
+	$(PYTHON) -m orchestrate paper
+
+test: setup
+	$(PYTHON) -m pytest -q tests

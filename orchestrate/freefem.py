@@ -1,0 +1,99 @@
+"""Launching FreeFem++ with the project's plugin and include paths.
+
+Debian's /etc/freefem++.pref points at a plugin folder that does not exist; the plugins
+(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++. FF_LOADPATH and FF_INCLUDEPATH
+fix both paths for any working folder; FF_VERBOSITY=0 keeps FreeFEM from echoing the script.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+MAIN = REPO / "edp" / "main.edp"
+PLUGIN_DIR = Path("/usr/lib/freefem++")
+
+# Exit codes of edp/main.edp (edp/lib/params.idp), and FreeFEM's own.
+EXIT_MEANING = {
+    1: "FreeFEM compile error",
+    2: "FreeFEM could not load a plugin",
+    3: "bad input",
+    4: "a solver loop did not converge",
+    5: "a broken invariant (NaN, bounds, gap)",
+    8: "FreeFEM run-time error",
+}
+
+
+class SolverError(RuntimeError):
+    """FreeFem++ stopped with a non-zero exit code."""
+
+    def __init__(self, returncode: int, message: str, log_tail: str):
+        self.returncode = returncode
+        self.message = message
+        self.log_tail = log_tail
+        meaning = EXIT_MEANING.get(returncode, "unexpected exit")
+        super().__init__(f"FreeFem++ exit {returncode} ({meaning}): {message}")
+
+
+def freefem_binary() -> str:
+    path = shutil.which("FreeFem++")
+    if path is None:
+        raise FileNotFoundError("FreeFem++ not found: run `make setup` (apt packages freefem++ libfreefem++)")
+    return path
+
+
+def freefem_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["FF_LOADPATH"] = str(PLUGIN_DIR)
+    env["FF_INCLUDEPATH"] = str(REPO / "edp" / "lib")
+    env.setdefault("FF_VERBOSITY", "0")
+    return env
+
+
+@dataclass
+class Completed:
+    returncode: int
+    stdout: str
+    stderr: str
+
+    @property
+    def error_line(self) -> str:
+        """The solver's one-line message ("ERROR: ..."), or the last line FreeFEM printed."""
+        for line in (self.stderr + "\n" + self.stdout).splitlines():
+            if line.startswith("ERROR: "):
+                return line[len("ERROR: "):]
+        lines = [line for line in (self.stdout + self.stderr).splitlines() if line.strip()]
+        return lines[-1] if lines else ""
+
+
+def run_script(script: Path | str, args: list[str] = (), cwd: Path | None = None,
+               timeout: float | None = None, defines: dict[str, str] | None = None) -> Completed:
+    """Run a FreeFEM script to completion in its own process group; return code and output."""
+    # -D must follow the script: before it, FreeFEM takes the first such argument for the script.
+    command = [freefem_binary(), "-nw", str(script)]
+    command += [f"-D{name}={value}" for name, value in (defines or {}).items()]
+    command += list(map(str, args))
+    process = subprocess.Popen(command, cwd=cwd or REPO, env=freefem_env(), text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except BaseException:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+        raise
+    return Completed(process.returncode, stdout, stderr)
+
+
+def run_solver(out: Path, args: list[str] = (), scene: Path | None = None,
+               timeout: float | None = None) -> Completed:
+    """Run edp/main.edp into folder `out`; raise SolverError when it fails."""
+    defines = {"SCENE": str(Path(scene).resolve())} if scene else None
+    done = run_script(MAIN, [*args, "-out", str(out)], defines=defines, timeout=timeout)
+    if done.returncode != 0:
+        tail = "\n".join((done.stdout + done.stderr).splitlines()[-20:])
+        raise SolverError(done.returncode, done.error_line, tail)
+    return done

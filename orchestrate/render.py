@@ -1,0 +1,121 @@
+"""Images of a run: the seed's Figure 2 (von Mises stress and damage on the deformed bodies, at
+the final output time) with pyvista off screen, and matplotlib plots along Γ_C and over time."""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+# Off-screen rendering through EGL; an exported but empty value would break it.
+if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
+    os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pyvista as pv  # noqa: E402
+
+from orchestrate.results import Result  # noqa: E402
+
+pv.OFF_SCREEN = True
+# VTK's bundled font has no Greek letters, so the image titles spell them out.
+FIELD_TITLES = {"vonMises": "von Mises stress (N/m^2)", "zeta": "damage zeta (1 = sound)"}
+
+
+def nice_magnification(max_displacement: float, size: float) -> float:
+    """A round factor (1, 2 or 5 × 10^k) that makes the largest displacement about 5 % of the size."""
+    if max_displacement <= 0:
+        return 1.0
+    target = 0.05 * size / max_displacement
+    exponent = math.floor(math.log10(target))
+    mantissa = max(m for m in (1, 2, 5, 10) if m <= target / 10 ** exponent)
+    return mantissa * 10 ** exponent
+
+
+def deformed_bodies(result: Result, time: float | None = None) -> tuple[list[pv.UnstructuredGrid], float]:
+    """Both bodies' triangles, warped by a round magnification of u; returns (bodies, factor)."""
+    files = result.outputs[-1][1] if time is None else dict(result.outputs)[time]
+    bodies = [pv.read(files[part]).extract_cells_by_type(pv.CellType.TRIANGLE) for part in ("body1", "body2")]
+    size = max(np.ptp(np.vstack([b.points for b in bodies]), axis=0))
+    largest = max(np.linalg.norm(b.point_data["u"], axis=1).max() for b in bodies)
+    factor = nice_magnification(largest, size)
+    return [body.warp_by_vector("u", factor=factor) for body in bodies], factor
+
+
+def render_fields(result: Result, target: Path, window=(1400, 1000)) -> Path:
+    """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies."""
+    bodies, factor = deformed_bodies(result)
+    time = result.outputs[-1][0]
+    plotter = pv.Plotter(shape=(1, 2), window_size=window, off_screen=True)
+    plotter.set_background("white")
+    for column, field in enumerate(("vonMises", "zeta")):
+        plotter.subplot(0, column)
+        values = np.concatenate([body[field] for body in bodies])
+        limits = (float(values.min()), float(values.max()))
+        if limits[0] == limits[1]:
+            limits = (limits[0] - 0.5, limits[1] + 0.5)
+        bar = dict(title=FIELD_TITLES[field], color="black", vertical=False, n_labels=5, fmt="%.4g",
+                   position_x=0.12, position_y=0.03, width=0.76, height=0.06, title_font_size=16,
+                   label_font_size=14)
+        for index, body in enumerate(bodies):
+            plotter.add_mesh(body, scalars=field, cmap="viridis" if field == "vonMises" else "magma",
+                             clim=limits, show_edges=False, scalar_bar_args=bar, show_scalar_bar=index == 0)
+        plotter.add_text(f"{FIELD_TITLES[field].split(' (')[0]} at t = {time:g}, "
+                         f"displacements magnified x{factor:g}", position="upper_edge", font_size=10, color="black")
+        plotter.view_xy()
+        plotter.camera.zoom(1.3)
+    plotter.screenshot(str(target))
+    plotter.close()
+    return target
+
+
+def plot_contact_line(result: Result, target: Path) -> Path:
+    """β, the gap g_h and the contact pressure along Γ_C at the final output time."""
+    line = result.fields("contact")
+    s = np.linalg.norm(line.points - line.points[0], axis=1)
+    beta = line.cell_data["beta"][0]
+    figure, axes = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True)
+    axes[0].stairs(beta, s, baseline=None, color="tab:green")
+    axes[0].ticklabel_format(axis="y", useOffset=False)
+    axes[0].set_ylabel("bonding β")
+    axes[1].plot(s, line.point_data["gap"], "o-", ms=3)
+    axes[1].axhline(0, color="grey", lw=0.8)
+    axes[1].set_ylabel("gap g_h (m)\n(< 0: open)")
+    axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
+    axes[2].set_ylabel("contact pressure (N/m²)")
+    axes[2].set_xlabel("position along Γ_C (m)")
+    figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
+    figure.tight_layout()
+    figure.savefig(target, dpi=120)
+    plt.close(figure)
+    return target
+
+
+def plot_history(result: Result, target: Path) -> Path:
+    """The history.csv series over time."""
+    h = result.history
+    panels = [("‖u‖_V", ["normV"]), ("max von Mises (N/m²)", ["vmMax1", "vmMax2"]),
+              ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
+              ("contact force (N/m)", ["contactForce"]), ("closed length (m)", ["contactLength"])]
+    figure, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
+    for axis, (title, columns) in zip(axes.flat, panels):
+        for column in columns:
+            axis.plot(h["t"], h[column], label=column)
+        axis.set_title(title, fontsize=10)
+        if len(columns) > 1:
+            axis.legend(fontsize=8)
+    for axis in axes[-1]:
+        axis.set_xlabel("t (s)")
+    figure.tight_layout()
+    figure.savefig(target, dpi=110)
+    plt.close(figure)
+    return target
+
+
+def render_all(result: Result, folder: Path) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    return [render_fields(result, folder / "fields.png"),
+            plot_contact_line(result, folder / "contact_line.png"),
+            plot_history(result, folder / "history.png")]

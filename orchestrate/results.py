@@ -1,0 +1,67 @@
+"""Reading what a solver run wrote: history.csv, params_used.json and the VTK files."""
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+PARTS = ("body1", "body2", "contact")
+
+
+@dataclass(frozen=True)
+class Result:
+    """A run folder of edp/main.edp."""
+
+    folder: Path
+
+    @cached_property
+    def history(self) -> dict[str, np.ndarray]:
+        """history.csv by column name, one entry per time step."""
+        table = np.genfromtxt(self.folder / "history.csv", delimiter=",", names=True, ndmin=1)
+        return {name: np.asarray(table[name]) for name in table.dtype.names}
+
+    @cached_property
+    def params(self) -> dict:
+        return json.loads((self.folder / "params_used.json").read_text())
+
+    @cached_property
+    def outputs(self) -> list[tuple[float, dict[str, Path]]]:
+        """(time, {part: .vtu path}) for every output time in solution.pvd, in time order."""
+        pvd = self.folder / "solution.pvd"
+        if not pvd.exists():
+            return []
+        by_time: dict[float, dict[str, Path]] = {}
+        for dataset in ElementTree.parse(pvd).getroot().iter("DataSet"):
+            time = float(dataset.get("timestep"))
+            part = PARTS[int(dataset.get("part"))]
+            by_time.setdefault(time, {})[part] = self.folder / dataset.get("file")
+        return sorted(by_time.items())
+
+    def fields(self, part: str, time: float | None = None) -> meshio.Mesh:
+        """The mesh and fields of one part ("body1", "body2", "contact") at an output time
+        (default: the last one written)."""
+        if not self.outputs:
+            raise FileNotFoundError(f"{self.folder} has no .vtu output (see the outTimes parameter)")
+        if time is None:
+            files = self.outputs[-1][1]
+        else:
+            times = np.array([t for t, _ in self.outputs])
+            files = self.outputs[int(np.argmin(abs(times - time)))][1]
+        return meshio.read(files[part])
+
+
+def load_result(folder: str | Path) -> Result:
+    folder = Path(folder)
+    if not (folder / "history.csv").exists():
+        raise FileNotFoundError(f"{folder} is not a run folder (no history.csv)")
+    return Result(folder)
+
+
+def cell_field(mesh: meshio.Mesh, name: str) -> np.ndarray:
+    """A cell field on the triangles (FreeFEM's .vtu also holds boundary edges as line cells)."""
+    return mesh.cell_data_dict[name]["triangle"]

@@ -1,0 +1,40 @@
+"""Shared helpers: run FreeFem++ scripts and the solver, mesh with the gmsh command line."""
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from orchestrate.freefem import REPO, Completed, run_script
+from orchestrate.results import Result
+
+TESTS = Path(__file__).resolve().parent
+SCENES = TESTS / "scenes"
+
+
+def gmsh_mesh(geo: str | Path, target: Path, **numbers: float) -> Path:
+    """Mesh a .geo file with the gmsh command line; numbers become -setnumber values."""
+    command = ["gmsh", "-2", str(REPO / geo), "-o", str(target)]
+    for name, value in numbers.items():
+        command += ["-setnumber", name, repr(float(value))]
+    subprocess.run(command, check=True, capture_output=True)
+    return target
+
+
+def solve(out: Path, *args, scene: Path | None = None) -> tuple[Completed, Result]:
+    """Run edp/main.edp into `out` and return the completed process and its result folder."""
+    defines = {"SCENE": str(scene)} if scene else None
+    done = run_script(REPO / "edp" / "main.edp", [*map(str, args), "-out", str(out)], defines=defines)
+    return done, Result(out)
+
+
+def solve_ok(out: Path, *args, scene: Path | None = None) -> Result:
+    done, result = solve(out, *args, scene=scene)
+    assert done.returncode == 0, f"solver failed ({done.returncode}): {done.error_line}\n{done.stdout[-2000:]}"
+    return result
+
+
+@pytest.fixture(scope="session")
+def session_dir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("runs")

@@ -1,0 +1,145 @@
+"""Contact patch test and uniform creep on two stacked blocks (tests/scenes/blocks.idp).
+
+The upper block (body 1, (0,2)×(0,1)) is pushed down through its top by 0.05·t and sits on the
+lower block (body 2, (0,2)×(−1,0)); rollers elsewhere, no glue, non-matching unstructured meshes.
+The exact discrete solution is then uniform in each body: σxx = σxy = 0, σyy = −p, the contact
+closed everywhere with the pressure p. A P1 mortar discretization must reproduce it to round-off
+(patch test), and its history must follow the scalar recursion of the scheme (MODEL.md §6), which
+`creep_recursion` computes here from the model's equations alone.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from conftest import SCENES, gmsh_mesh, solve_ok
+from orchestrate.results import cell_field
+
+T, N = 1.0, 25
+PUSH_RATE = 0.05                 # top of body 1 displaced by −PUSH_RATE·t (tests/scenes/blocks.idp)
+HEIGHT, WIDTH = (1.0, 1.0), 2.0  # body 1, body 2
+
+
+@dataclass
+class Body:
+    E: float
+    nu: float
+    mu: float
+    eta: float
+    plane_strain: int
+    lambdaD: float
+    lambdaU: float
+    lambdaW: float
+
+    @property
+    def lame(self):
+        """(a, b) of (Gτ) = a tr(τ) I + b τ (MODEL.md §2)."""
+        a = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu)) if self.plane_strain \
+            else self.E * self.nu / (1 - self.nu ** 2)
+        return a, self.E / (1 + self.nu)
+
+    def flags(self, i):
+        names = dict(E="E", nu="nu", mu="mu", eta="eta", plane_strain="planeStrain",
+                     lambdaD="lambdaD", lambdaU="lambdaU", lambdaW="lambdaW")
+        return [item for field, flag in names.items() for item in (f"-{flag}{i}", getattr(self, field))]
+
+
+# Damage strong enough to halve ζ in body 2; λ_w > 0 makes ζ ≤ 1 active in body 1 at the first steps.
+BODIES = (Body(1000, 0.3, 30, 20, 0, 0.01, 2000, 0.002), Body(600, 0.25, 10, 15, 1, 0.02, 3000, 0.0))
+
+
+def creep_recursion(zeta_min=1e-3, L=1.0):
+    """Per step n: uniform strains (exx, eyy) per body, pressure p, damage ζ per body, and the
+    output stress σⁿ = A(εⁿ − εⁿ⁻¹)/k + ζⁿ G εⁿ, from the scheme's equations:
+      σxx = [μ tr Δ + η Δxx]/k + ζⁿ⁻¹ (a tr ε + b exx)ⁿ⁻¹ = 0,
+      σyy = [μ tr Δ + η Δyy]/k + ζⁿ⁻¹ (a tr ε + b eyy)ⁿ⁻¹ = −p  (each body),
+      H1 eyy1 + H2 eyy2 = −PUSH_RATE tⁿ  (contact closed: the interface moves as one),
+      ζⁿ = clip(ζⁿ⁻¹ + k φ(εⁿ⁻¹, ζⁿ⁻¹), 0, 1).
+    """
+    k = T / N
+    strain = np.zeros((2, 2))
+    zeta = np.ones(2)
+    steps = []
+    for n in range(1, N + 1):
+        matrix, rhs = np.zeros((5, 5)), np.zeros(5)
+        for i, body in enumerate(BODIES):
+            a, b = body.lame
+            exx, eyy = strain[i]
+            matrix[2 * i, 2 * i: 2 * i + 2] = ((body.mu + body.eta) / k, body.mu / k)
+            matrix[2 * i + 1, 2 * i: 2 * i + 2] = (body.mu / k, (body.mu + body.eta) / k)
+            matrix[2 * i + 1, 4] = 1.0
+            rhs[2 * i] = -zeta[i] * (a * (exx + eyy) + b * exx)
+            rhs[2 * i + 1] = -zeta[i] * (a * (exx + eyy) + b * eyy)
+        matrix[4, 1], matrix[4, 3] = HEIGHT
+        rhs[4] = -PUSH_RATE * n * k - HEIGHT[0] * strain[0, 1] - HEIGHT[1] * strain[1, 1]
+        solution = np.linalg.solve(matrix, rhs)
+        increment, pressure = solution[:4].reshape(2, 2), solution[4]
+        new_zeta = np.empty(2)
+        for i, body in enumerate(BODIES):
+            zc = max(zeta[i], zeta_min)
+            phi = body.lambdaD * (1 - zc) / zc - 0.5 * body.lambdaU * min(np.sum(strain[i] ** 2), L) + body.lambdaW
+            new_zeta[i] = np.clip(zeta[i] + k * phi, 0.0, 1.0)
+        strain = strain + increment
+        stress = []
+        for i, body in enumerate(BODIES):
+            a, b = body.lame
+            dxx, dyy = increment[i]
+            exx, eyy = strain[i]
+            stress.append(((body.mu * (dxx + dyy) + body.eta * dxx) / k + new_zeta[i] * (a * (exx + eyy) + b * exx),
+                           (body.mu * (dxx + dyy) + body.eta * dyy) / k + new_zeta[i] * (a * (exx + eyy) + b * eyy)))
+        zeta = new_zeta
+        norm_v = np.sqrt(sum(HEIGHT[i] * WIDTH * np.sum(strain[i] ** 2) for i in range(2)))
+        steps.append(dict(pressure=pressure, zeta=zeta.copy(), stress=np.array(stress), normV=norm_v))
+    return steps
+
+
+@pytest.fixture(scope="module")
+def blocks(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("blocks")
+    upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=7)
+    lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=11)
+    return solve_ok(folder / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", N,
+                    "-outTimes", "all", "-contactTol", 1e-14, *BODIES[0].flags(1), *BODIES[1].flags(2),
+                    scene=SCENES / "blocks.idp")
+
+
+def test_meshes_do_not_match(blocks):
+    assert len(blocks.fields("contact").points) == 8  # body 1's trace; body 2 has 12 nodes there
+
+
+def test_patch_stress_is_uniform_in_every_element_at_every_step(blocks):
+    assert len(blocks.outputs) == N
+    for time, _ in blocks.outputs:
+        for body in ("body1", "body2"):
+            mesh = blocks.fields(body, time)
+            stress = np.stack([cell_field(mesh, f"sigma{c}") for c in ("11", "22", "12")])
+            scale = np.abs(stress).max()
+            assert scale > 0
+            spread = np.abs(stress - stress.mean(axis=1, keepdims=True)).max()
+            assert spread <= 1e-8 * scale, f"{body} at t={time}: stress varies by {spread / scale:.2e} (relative)"
+
+
+def test_patch_pressure_is_uniform_at_every_contact_node(blocks):
+    for time, _ in blocks.outputs:
+        pressure = blocks.fields("contact", time).point_data["pressure"]
+        assert pressure.min() > 0, f"contact not closed everywhere at t={time}"
+        assert np.ptp(pressure) <= 1e-8 * pressure.mean(), f"pressure varies at t={time}"
+
+
+def test_creep_follows_the_scalar_recursion(blocks):
+    expected = creep_recursion()
+    history = blocks.history
+    pressure = np.array([step["pressure"] for step in expected])
+    np.testing.assert_allclose(history["contactForce"], pressure * WIDTH, rtol=1e-10)
+    np.testing.assert_allclose(history["normV"], [step["normV"] for step in expected], rtol=1e-10)
+    np.testing.assert_allclose(history["zetaMin1"], [step["zeta"][0] for step in expected], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(history["zetaMin2"], [step["zeta"][1] for step in expected], rtol=0, atol=1e-10)
+    assert expected[-1]["zeta"].min() < 0.5, "the test should exercise damage"
+    for (time, _), step in zip(blocks.outputs, expected):
+        for i, body in enumerate(("body1", "body2")):
+            mesh = blocks.fields(body, time)
+            sxx, syy = step["stress"][i]
+            scale = abs(syy)
+            np.testing.assert_allclose(cell_field(mesh, "sigma22"), syy, rtol=1e-10)
+            np.testing.assert_allclose(cell_field(mesh, "sigma11"), sxx, rtol=0, atol=1e-10 * scale)
+            np.testing.assert_allclose(cell_field(mesh, "sigma12"), 0.0, rtol=0, atol=1e-10 * scale)

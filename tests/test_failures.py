@@ -1,0 +1,47 @@
+"""Failures are loud (one line naming the step, the field and the value; a non-zero exit code)
+and keep what was computed."""
+import pytest
+
+from conftest import SCENES, solve
+
+
+def test_a_contact_loop_that_does_not_converge_stops_the_run(tmp_path):
+    done, result = solve(tmp_path / "run", "-contactMaxIt", 3)
+    assert done.returncode == 4
+    assert "step 1/40" in done.error_line and "contactMaxIt" in done.error_line
+    assert (tmp_path / "run" / "params_used.json").exists()
+    assert (tmp_path / "run" / "history.csv").read_text().startswith("n,t,normV")
+
+
+def test_a_broken_invariant_stops_the_run_and_keeps_earlier_steps(tmp_path):
+    # Debonding this strong takes β below 0 in one explicit step.
+    done, result = solve(tmp_path / "run", "-gammaNu", 1e7, "-gammaR", 0)
+    assert done.returncode == 5
+    assert "beta min" in done.error_line and "below 0" in done.error_line
+    step = int(done.error_line.split("step ")[1].split("/")[0])
+    assert step > 1
+    assert len(result.history["t"]) == step  # earlier steps and the failing one are on record
+    assert result.history["betaMin"][-1] < 0
+
+
+@pytest.mark.parametrize("args, words", [
+    (["-gamaNu", "2"], ["unknown flag -gamaNu", "-gammaNu"]),
+    (["-nu1", "0.7"], ["nu1", "0.7", "-1 < nu < 0.5"]),
+    (["-N", "0"], ["N", "N >= 1"]),
+    (["-N", "ten"], ["-N", "integer", "ten"]),
+    (["-E2", "-5"], ["E2", "E > 0"]),
+    (["-labC1", "9"], ["labC1", "9", "labels: 1 2 3 4 5"]),
+    (["-mesh2", "nowhere.msh"], ["-mesh2", "nowhere.msh", "not found"]),
+    (["-outTimes", "0.5,x"], ["outTimes", "'x'"]),
+])
+def test_bad_input_is_refused_with_the_field_and_the_allowed_range(tmp_path, args, words):
+    done, _ = solve(tmp_path / "run", *args)
+    assert done.returncode == 3
+    for word in words:
+        assert word in done.error_line, (word, done.error_line)
+
+
+def test_a_body_that_would_float_is_refused(tmp_path):
+    done, _ = solve(tmp_path / "run", scene=SCENES / "floating.idp")
+    assert done.returncode == 3
+    assert "body 2 is not held" in done.error_line and "x-translation" in done.error_line
