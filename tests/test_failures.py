@@ -45,3 +45,10 @@ def test_a_body_that_would_float_is_refused(tmp_path):
     done, _ = solve(tmp_path / "run", scene=SCENES / "floating.idp")
     assert done.returncode == 3
     assert "body 2 is not held" in done.error_line and "x-translation" in done.error_line
+
+
+def test_a_nan_stops_the_run_at_the_step_where_it_appears(tmp_path):
+    done, result = solve(tmp_path / "run", scene=SCENES / "nan_load.idp")
+    assert done.returncode == 5
+    assert "step 1/40" in done.error_line and "is not finite" in done.error_line
+    assert not list((tmp_path / "run").glob("*.vtu"))
