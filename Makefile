@@ -29,7 +29,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 paper: setup
-	$(PYTHON) -m orchestrate paper
+	$(PYTHON) -m orchestrate run scenes/paper.toml --out results/paper --force
 
 test: setup
 	$(PYTHON) -m pytest -q tests

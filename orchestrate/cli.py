@@ -1,70 +1,50 @@
-"""Command line: python -m orchestrate {paper,render} ..."""
+"""python -m orchestrate {run,render,sweep}: scenes, images and parameter sweeps from the shell."""
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import shutil
 import sys
-import time
-from importlib import metadata
 from pathlib import Path
 
-from orchestrate.freefem import REPO, SolverError, run_solver
+from orchestrate.freefem import SolverError
+from orchestrate.mesh import MeshError
 from orchestrate.results import load_result
+from orchestrate.scene import SceneError, parse_value
 
 
-def package_versions() -> dict[str, str]:
-    names = ["numpy", "meshio", "pyvista", "vtk", "matplotlib", "gmsh"]
-    versions = {"python": platform.python_version()}
-    for name in names:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
+def parse_assignments(items: list[str], option: str) -> dict:
+    """key=value strings as a dict (values read as TOML would: numbers, booleans, strings)."""
+    assignments = {}
+    for item in items:
+        key, separator, value = item.partition("=")
+        if not separator or not key:
+            raise SceneError(f"{option} {item!r}: expected key=value, e.g. {option} time.N=80")
+        assignments[key.strip()] = parse_value(value.strip())
+    return assignments
 
 
-def write_summary(folder: Path, run_folder: Path, command: str, seconds: float) -> Path:
-    result = load_result(run_folder)
-    final = {name: float(values[-1]) for name, values in result.history.items()}
-    summary = {
-        "command": command,
-        "wallSeconds": round(seconds, 3),
-        "final": final,
-        "parameters": result.params,
-        "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
-    }
-    target = folder / "summary.json"
-    target.write_text(json.dumps(summary, indent=2) + "\n")
-    return target
+def command_run(options) -> int:
+    from orchestrate.runner import run
 
-
-def run_into(folder: Path, args: list[str]) -> float:
-    """Run the solver into folder, which appears only once the run is complete."""
-    partial = folder.with_name(folder.name + ".partial")
-    shutil.rmtree(partial, ignore_errors=True)
-    start = time.perf_counter()
-    run_solver(partial, args)
-    seconds = time.perf_counter() - start
-    shutil.rmtree(folder, ignore_errors=True)
-    partial.rename(folder)
-    return seconds
-
-
-def command_paper(options) -> int:
-    from orchestrate.render import render_all
-
-    folder = Path(options.out)
-    folder.mkdir(parents=True, exist_ok=True)
-    run_folder = folder / "run"
-    print(f"running the paper's scene (edp/main.edp, defaults) into {run_folder} ...")
-    seconds = run_into(run_folder, options.solver_args)
-    images = render_all(load_result(run_folder), folder)
-    summary = write_summary(folder, run_folder, "make paper", seconds)
-    for path in [*images, summary]:
-        print(f"wrote {path}")
+    result = run(options.scene, options.out, parse_assignments(options.set, "--set"), force=options.force,
+                 progress=sys.stderr.isatty())
+    final = result.history
+    print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
+          f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
     return 0
+
+
+def command_sweep(options) -> int:
+    from orchestrate.sweep import parse_grid, sweep
+
+    grid = parse_grid(options.grid)
+    rows = sweep(options.scene, grid, options.out, parse_assignments(options.set, "--set"),
+                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
+    width = max(len(row["folder"]) for row in rows)
+    for row in rows:
+        figure = f"normV(T) = {row['normV']:.6g}" if row.get("normV") is not None else row.get("error", "")
+        print(f"{row['folder']:<{width}}  {row['status']:<18}  {figure}")
+    print(f"table: {Path(options.out) / 'sweep.csv'}")
+    return 0 if all(row["status"] != "failed" and row["status"] != "invalid" for row in rows) else 1
 
 
 def command_render(options) -> int:
@@ -79,23 +59,38 @@ def command_render(options) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m orchestrate", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
-    paper = commands.add_parser("paper", help="run the paper's scene and write its images")
-    paper.add_argument("--out", default=str(REPO / "results" / "paper"), help="image folder (default results/paper)")
-    paper.add_argument("solver_args", nargs=argparse.REMAINDER,
-                       help="extra solver flags after --, e.g. -- -N 80")
-    paper.set_defaults(handler=command_paper)
+    run = commands.add_parser("run", help="run a scene (TOML) into a folder")
+    run.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
+    run.add_argument("--out", help="output folder (default results/<scene name>)")
+    run.add_argument("--force", action="store_true", help="replace the output folder if it exists")
+    run.set_defaults(handler=command_run)
+    sweep = commands.add_parser("sweep", help="run the cartesian product of overrides on dask.distributed")
+    sweep.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
+    sweep.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2,...",
+                       help="values of one scene key, e.g. --grid time.N=20,40 --grid glue.gammaNu=0,1")
+    sweep.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
+    sweep.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
+    sweep.add_argument("--workers", type=int, default=2, help="LocalCluster workers (default 2)")
+    sweep.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
+    sweep.set_defaults(handler=command_sweep)
     render = commands.add_parser("render", help="images of a run folder")
     render.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     render.add_argument("--out", help="where to write the images (default: the run folder)")
     render.set_defaults(handler=command_render)
     options = parser.parse_args(argv)
-    if getattr(options, "solver_args", None) and options.solver_args[0] == "--":
-        options.solver_args = options.solver_args[1:]
     try:
         return options.handler(options)
     except SolverError as error:
         print(f"error: {error}\n{error.log_tail}", file=sys.stderr)
         return error.returncode
-    except FileNotFoundError as error:
+    except (SceneError, MeshError, FileNotFoundError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except RuntimeError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

@@ -73,27 +73,50 @@ class Completed:
 def run_script(script: Path | str, args: list[str] = (), cwd: Path | None = None,
                timeout: float | None = None, defines: dict[str, str] | None = None) -> Completed:
     """Run a FreeFEM script to completion in its own process group; return code and output."""
-    # -D must follow the script: before it, FreeFEM takes the first such argument for the script.
-    command = [freefem_binary(), "-nw", str(script)]
-    command += [f"-D{name}={value}" for name, value in (defines or {}).items()]
-    command += list(map(str, args))
-    process = subprocess.Popen(command, cwd=cwd or REPO, env=freefem_env(), text=True,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd or REPO, env=freefem_env(),
+                               text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         stdout, stderr = process.communicate(timeout=timeout)
     except BaseException:
-        os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
+        stop_group(process)
         raise
     return Completed(process.returncode, stdout, stderr)
 
 
-def run_solver(out: Path, args: list[str] = (), scene: Path | None = None,
-               timeout: float | None = None) -> Completed:
-    """Run edp/main.edp into folder `out`; raise SolverError when it fails."""
-    defines = {"SCENE": str(Path(scene).resolve())} if scene else None
-    done = run_script(MAIN, [*args, "-out", str(out)], defines=defines, timeout=timeout)
-    if done.returncode != 0:
-        tail = "\n".join((done.stdout + done.stderr).splitlines()[-20:])
-        raise SolverError(done.returncode, done.error_line, tail)
-    return done
+def freefem_command(script: Path | str, args=(), defines: dict[str, str] | None = None) -> list[str]:
+    # -D must follow the script: before it, FreeFEM takes the first such argument for the script.
+    command = [freefem_binary(), "-nw", str(script)]
+    command += [f"-D{name}={value}" for name, value in (defines or {}).items()]
+    return command + list(map(str, args))
+
+
+def stop_group(process: subprocess.Popen) -> None:
+    """End a FreeFem++ process and anything it started (gmsh), politely first."""
+    try:
+        os.killpg(process.pid, signal.SIGTERM)
+        process.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    except ProcessLookupError:
+        pass
+
+
+def run_logged(script: Path | str, args, log: Path, on_line=None, defines: dict[str, str] | None = None) -> Completed:
+    """Run a FreeFEM script with its output (stdout and stderr) streamed into `log` and, line by
+    line, to on_line. An exception here (KeyboardInterrupt included) ends its process group."""
+    with open(log, "w") as sink:
+        process = subprocess.Popen(freefem_command(script, args, defines), cwd=REPO, env=freefem_env(), text=True,
+                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, bufsize=1,
+                                   start_new_session=True)
+        try:
+            for line in process.stdout:
+                sink.write(line)
+                if on_line:
+                    on_line(line)
+            process.wait()
+        except BaseException:
+            stop_group(process)
+            raise
+    text = log.read_text()
+    return Completed(process.returncode, text, "")

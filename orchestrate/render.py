@@ -44,8 +44,9 @@ def deformed_bodies(result: Result, time: float | None = None) -> tuple[list[pv.
     return [body.warp_by_vector("u", factor=factor) for body in bodies], factor
 
 
-def render_fields(result: Result, target: Path, window=(1400, 1000)) -> Path:
-    """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies."""
+def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str, tuple[float, float]]:
+    """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies.
+    Returns the colour range each colour bar shows, read back from the rendered scene."""
     bodies, factor = deformed_bodies(result)
     time = result.outputs[-1][0]
     plotter = pv.Plotter(shape=(1, 2), window_size=window, off_screen=True)
@@ -67,8 +68,10 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> Path:
         plotter.view_xy()
         plotter.camera.zoom(1.3)
     plotter.screenshot(str(target))
+    shown = {field: tuple(plotter.scalar_bars[FIELD_TITLES[field]].GetLookupTable().GetRange())
+             for field in ("vonMises", "zeta")}
     plotter.close()
-    return target
+    return shown
 
 
 def plot_contact_line(result: Result, target: Path) -> Path:
@@ -115,7 +118,13 @@ def plot_history(result: Result, target: Path) -> Path:
 
 
 def render_all(result: Result, folder: Path) -> list[Path]:
+    """Every image the run's files allow: fields (body files), contact line, history."""
     folder.mkdir(parents=True, exist_ok=True)
-    return [render_fields(result, folder / "fields.png"),
-            plot_contact_line(result, folder / "contact_line.png"),
-            plot_history(result, folder / "history.png")]
+    parts = set(result.outputs[-1][1]) if result.outputs else set()
+    images = []
+    if {"body1", "body2"} <= parts:
+        render_fields(result, folder / "fields.png")
+        images.append(folder / "fields.png")
+    if "contact" in parts:
+        images.append(plot_contact_line(result, folder / "contact_line.png"))
+    return images + [plot_history(result, folder / "history.png")]

@@ -1,0 +1,439 @@
+"""Scenes: a TOML file that fully describes a run, validated before anything runs.
+
+A scene has the two bodies (mesh, material, damage, boundary conditions by mesh label), the glue,
+the time grid, solver options and outputs; `scenes/paper.toml` is the paper's. Validation is done
+by pydantic models that forbid unknown keys; every error names the key, the value and what is
+allowed. Expressions (loads, prescribed displacements) go through orchestrate.expr. The FreeFEM
+side receives a generated scene file holding only numbers formatted here, labels, file paths
+checked here, and expression code written from parsed trees (`to_freefem_scene`).
+"""
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from orchestrate import expr
+from orchestrate.freefem import REPO
+
+
+class SceneError(ValueError):
+    """A scene that cannot run; the message lists every problem, one per line."""
+
+
+def _expression(value):
+    if not isinstance(value, str):
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            value = repr(value)
+        else:
+            raise ValueError(f"an expression must be a string or a number, got {type(value).__name__}")
+    try:
+        expr.parse(value)
+    except expr.ExpressionError as error:
+        raise ValueError(str(error)) from None
+    return value
+
+
+Expression = Annotated[str, BeforeValidator(_expression)]
+MESHES = REPO / "meshes"
+IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Mesh(Strict):
+    """A gmsh source in meshes/ with its size parameter n (elements per side) and other
+    DefineConstant values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top,
+    4 left). A .geo file is gmsh code (it can run commands), so only the project's own are used."""
+    geo: str | None = None
+    rectangle: tuple[float, float, float, float] | None = Field(default=None, description="x0, x1, y0, y1")
+    n: int = Field(ge=1, le=4096)
+    structured: bool | None = None
+    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Annotated[float, Field(allow_inf_nan=False)]] = {}
+    contact_label: int = Field(ge=0, le=2**30)
+
+    @model_validator(mode="after")
+    def one_source(self):
+        if (self.geo is None) == (self.rectangle is None):
+            raise ValueError("give exactly one of geo (a .geo file) and rectangle ([x0, x1, y0, y1])")
+        if self.rectangle is not None:
+            x0, x1, y0, y1 = self.rectangle
+            if not all(math.isfinite(v) for v in self.rectangle) or not (x0 < x1 and y0 < y1):
+                raise ValueError(f"rectangle {list(self.rectangle)} needs finite x0 < x1 and y0 < y1")
+        return self
+
+    @field_validator("geo")
+    @classmethod
+    def geo_file(cls, value):
+        if value is None:
+            return value
+        path = (REPO / value).resolve()
+        if not path.is_relative_to(MESHES.resolve()):
+            raise ValueError(f"'{value}' is outside meshes/: a scene uses the project's gmsh sources "
+                             "(meshes/*.geo, a path relative to the repository)")
+        if path.suffix != ".geo":
+            raise ValueError(f"'{value}' is not a gmsh .geo file")
+        if not path.is_file():
+            raise ValueError(f"gmsh source '{value}' not found")
+        return value
+
+    def source(self) -> Path:
+        return MESHES / "rectangle.geo" if self.rectangle is not None else (REPO / self.geo).resolve()
+
+    def numbers(self) -> dict[str, float]:
+        """The gmsh -setnumber values for this mesh."""
+        numbers: dict[str, float] = {"n": self.n}
+        if self.rectangle is not None:
+            numbers.update(zip(("x0", "x1", "y0", "y1"), self.rectangle))
+        if self.structured is not None:
+            numbers["structured"] = int(self.structured)
+        numbers.update(self.parameters)
+        return numbers
+
+
+class Material(Strict):
+    """σ = Aε(u̇) + ζGε(u): (Aτ) = μ tr(τ) I + η τ; G from E, ν (plane stress or strain)."""
+    E: float = Field(gt=0, allow_inf_nan=False)
+    nu: float = Field(gt=-1, lt=0.5)
+    mu: float = Field(allow_inf_nan=False)
+    eta: float = Field(gt=0, allow_inf_nan=False)
+    kappa: float = Field(ge=0, allow_inf_nan=False)
+    plane: Literal["stress", "strain"] = "stress"
+
+    @model_validator(mode="after")
+    def viscosity_definite(self):
+        if 2 * self.mu + self.eta <= 0:
+            raise ValueError(f"mu = {self.mu} with eta = {self.eta}: A needs 2 mu + eta > 0")
+        return self
+
+
+class BodyDamage(Strict):
+    """φ = λ_D (1 − ζ)/ζ − ½ λ_u R(ε·ε) + λ_w, and the initial damage ζ0."""
+    lambdaD: float = Field(0.01, ge=0, allow_inf_nan=False)
+    lambdaU: float = Field(1.0, ge=0, allow_inf_nan=False)
+    lambdaW: float = Field(0.0, allow_inf_nan=False)
+    zeta0: float = Field(1.0, ge=0, le=1)
+
+
+class Clamped(Strict):
+    type: Literal["clamped"]
+    label: int = Field(ge=0, le=2**30)
+
+
+class Roller(Strict):
+    type: Literal["roller"]
+    label: int = Field(ge=0, le=2**30)
+    component: Literal["x", "y"]
+
+
+class Displacement(Strict):
+    type: Literal["displacement"]
+    label: int = Field(ge=0, le=2**30)
+    component: Literal["x", "y"]
+    value: Expression
+
+
+class Traction(Strict):
+    type: Literal["traction"]
+    label: int = Field(ge=0, le=2**30)
+    fx: Expression = "0"
+    fy: Expression = "0"
+
+
+Boundary = Annotated[Union[Clamped, Roller, Displacement, Traction], Field(discriminator="type")]
+
+
+class Body(Strict):
+    mesh: Mesh
+    material: Material
+    damage: BodyDamage = BodyDamage()
+    boundary: list[Boundary] = Field(min_length=1)
+    volume_force: tuple[Expression, Expression] = ("0", "0")
+
+    @model_validator(mode="after")
+    def consistent_boundary(self):
+        prescribed: dict[int, set[str]] = {}
+        for condition in self.boundary:
+            if isinstance(condition, Traction):
+                continue
+            components = {"x", "y"} if isinstance(condition, Clamped) else {condition.component}
+            taken = prescribed.setdefault(condition.label, set())
+            if taken & components:
+                raise ValueError(f"label {condition.label}: component(s) {sorted(taken & components)} prescribed twice")
+            taken |= components
+        for condition in self.boundary:
+            if isinstance(condition, Traction):
+                if prescribed.get(condition.label) == {"x", "y"}:
+                    raise ValueError(f"label {condition.label}: a traction on a boundary whose displacement is prescribed")
+                if condition.label == self.mesh.contact_label:
+                    raise ValueError(f"label {condition.label} is the contact label: Γ_C carries no given traction")
+        if not prescribed:
+            raise ValueError("no clamped, roller or displacement condition: the body would float (MODEL.md §1)")
+        return self
+
+
+class Time(Strict):
+    T: float = Field(gt=0, allow_inf_nan=False)
+    N: int = Field(ge=1, le=10**7)
+
+
+class Glue(Strict):
+    gammaNu: float = Field(1.0, ge=0, allow_inf_nan=False)
+    gammaR: float = Field(1.0, ge=0, allow_inf_nan=False)
+    pTau: float = Field(1.0, ge=0, allow_inf_nan=False)
+    L: float = Field(1.0, gt=0, allow_inf_nan=False)
+    beta0: float = Field(1.0, ge=0, le=1)
+
+
+class DamageNumerics(Strict):
+    zetaMin: float = Field(1e-3, gt=0, le=1)
+
+
+class Solver(Strict):
+    contact_tol: float = Field(1e-10, gt=0, allow_inf_nan=False)
+    contact_max_iterations: int = Field(10000, ge=1)
+    bm_omega: float = Field(1.0, gt=0, allow_inf_nan=False)
+    damage_tol: float = Field(1e-12, gt=0, allow_inf_nan=False)
+    damage_max_iterations: int = Field(50, ge=1)
+    bound_tol: float = Field(1e-10, ge=0, allow_inf_nan=False)
+    linear_solver: Literal["CHOLMOD", "UMFPACK"] = "CHOLMOD"
+
+
+class Output(Strict):
+    """.vtu files at `times` ("final", "all", "none" or a list of times in (0, T]), with the
+    `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line)."""
+    times: Literal["final", "all", "none"] | list[float] = "final"
+    fields: list[Literal["bodies", "stress", "contact"]] = ["bodies", "stress", "contact"]
+    images: bool = True
+
+
+class Scene(Strict):
+    title: str = ""
+    time: Time
+    body1: Body
+    body2: Body
+    glue: Glue = Glue()
+    damage: DamageNumerics = DamageNumerics()
+    solver: Solver = Solver()
+    output: Output = Output()
+
+    @model_validator(mode="after")
+    def output_times_in_range(self):
+        if isinstance(self.output.times, list):
+            for value in self.output.times:
+                if not (math.isfinite(value) and 0 < value <= self.time.T):
+                    raise ValueError(f"output.times: {value} is outside (0, T = {self.time.T}]")
+        return self
+
+    @classmethod
+    def load(cls, path: str | Path, overrides: dict | None = None) -> "Scene":
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except FileNotFoundError:
+            raise SceneError(f"scene file {path} not found") from None
+        except tomllib.TOMLDecodeError as error:
+            raise SceneError(f"{path}: not valid TOML: {error}") from None
+        return cls.from_dict(data, overrides, source=str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict, overrides: dict | None = None, source: str = "scene") -> "Scene":
+        data = apply_overrides(data, overrides or {})
+        try:
+            return cls.model_validate(data)
+        except ValidationError as error:
+            raise SceneError(f"{source}:\n" + "\n".join(describe(e) for e in error.errors())) from None
+
+    def with_overrides(self, overrides: dict) -> "Scene":
+        return Scene.from_dict(self.model_dump(mode="json"), overrides)
+
+    def to_toml(self) -> str:
+        return to_toml(self.model_dump(mode="json", exclude_none=True))
+
+
+# --- overrides -------------------------------------------------------------------------------
+
+def parse_value(text: str):
+    """A --set value as TOML would read it (numbers, booleans, arrays, strings), else a string."""
+    try:
+        return tomllib.loads(f"value = {text}")["value"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: dict, overrides: dict) -> dict:
+    """Set dotted keys (`time.N`, `body1.material.E`, `body1.boundary.2.fy`) in a copy of data."""
+    data = copy.deepcopy(data)
+    for key, value in overrides.items():
+        parts = key.split(".")
+        node = data
+        for depth, part in enumerate(parts):
+            last = depth == len(parts) - 1
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise SceneError(f"--set {key}: '{part}' is not an index of a list of {len(node)}")
+                part = int(part)
+            elif not isinstance(node, dict):
+                raise SceneError(f"--set {key}: '{'.'.join(parts[:depth])}' holds a value, not a table")
+            if last:
+                node[part] = value
+            else:
+                if isinstance(node, dict) and part not in node:
+                    node[part] = {}
+                node = node[part]
+    return data
+
+
+# --- messages --------------------------------------------------------------------------------
+
+BOUNDARY_TYPES = {"clamped": Clamped, "roller": Roller, "displacement": Displacement, "traction": Traction}
+
+
+def _model_at(path: tuple) -> type[BaseModel] | None:
+    """The model class found at a location of a scene (boundary tags included), for suggestions."""
+    model: object = Scene
+    for part in path:
+        if isinstance(part, int):
+            continue
+        if part in BOUNDARY_TYPES and model is None:
+            model = BOUNDARY_TYPES[part]
+            continue
+        if model is None:
+            return None
+        fields = getattr(model, "model_fields", {})
+        if part not in fields:
+            return None
+        annotation = fields[part].annotation
+        model = next((a for a in getattr(annotation, "__args__", (annotation,))
+                      if isinstance(a, type) and issubclass(a, BaseModel)), None)
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+
+
+def describe(error: dict) -> str:
+    """One line naming the key, the value and what is allowed."""
+    raw = tuple(error["loc"])
+    location = tuple(part for part in raw if part not in BOUNDARY_TYPES)
+    key = ".".join(str(part) for part in location) or "scene"
+    if error["type"] == "extra_forbidden":
+        parent = _model_at(raw[:-1])
+        names = list(parent.model_fields) if parent else []
+        close = difflib.get_close_matches(str(raw[-1]), names, n=1, cutoff=0.5)
+        hint = f"did you mean '{close[0]}'?" if close else f"valid keys: {', '.join(names)}"
+        return f"{key}: unknown key ({hint})"
+    if error["type"] == "missing":
+        return f"{key}: missing (required)"
+    message = error["msg"].removeprefix("Value error, ")
+    if error["type"] in ("model_type", "dict_type") or "input" not in error:
+        return f"{key}: {message}"
+    return f"{key} = {error['input']!r}: {message}"
+
+
+# --- TOML writing (the scene as run) ---------------------------------------------------------
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    raise TypeError(type(value))
+
+
+def to_toml(data: dict, prefix: str = "") -> str:
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    tables = {k: v for k, v in data.items() if isinstance(v, dict)}
+    lines = [f"{k} = {_toml_value(v)}" for k, v in scalars.items()]
+    text = ("\n".join(lines) + "\n") if lines else ""
+    for name, table in tables.items():
+        text += f"\n[{prefix}{name}]\n" + to_toml(table, f"{prefix}{name}.")
+    return text
+
+
+# --- the FreeFEM scene -----------------------------------------------------------------------
+
+def _freefem_string(path: Path) -> str:
+    text = str(path)
+    if any(c in text for c in '"\\\n\r') or not text.isprintable():
+        raise SceneError(f"path {text!r} cannot be passed to FreeFEM (quotes, backslashes or control characters)")
+    return f'"{text}"'
+
+
+def _dirichlet(body: Body) -> str:
+    terms = []
+    for condition in body.boundary:
+        if isinstance(condition, Clamped):
+            terms.append(f"on({condition.label}, ux = 0., uy = 0.)")
+        elif isinstance(condition, Roller):
+            terms.append(f"on({condition.label}, u{condition.component} = 0.)")
+        elif isinstance(condition, Displacement):
+            terms.append(f"on({condition.label}, u{condition.component} = {expr.freefem(condition.value)})")
+    return " + ".join(terms)
+
+
+def _loads(body: Body, i: int) -> str | None:
+    terms = []
+    fx, fy = body.volume_force
+    if not (expr.is_zero(fx) and expr.is_zero(fy)):
+        terms.append(f"int2d(Th{i})({expr.freefem(fx)}*vx + {expr.freefem(fy)}*vy)")
+    for condition in body.boundary:
+        if isinstance(condition, Traction):
+            parts = [f"{expr.freefem(value)}*v{c}" for c, value in (("x", condition.fx), ("y", condition.fy))
+                     if not expr.is_zero(value)]
+            if parts:
+                terms.append(f"int1d(Th{i}, {condition.label})({' + '.join(parts)})")
+    return " + ".join(terms) or None
+
+
+def _number(value) -> str:
+    return str(value) if isinstance(value, int) and not isinstance(value, bool) else expr.number_code(value)
+
+
+def solver_parameters(scene: Scene) -> dict[str, float | int | str]:
+    """The scene's values under the driver's parameter names (edp/lib/defaults.idp)."""
+    values: dict[str, float | int | str] = {"T": scene.time.T, "N": scene.time.N}
+    for i, body in ((1, scene.body1), (2, scene.body2)):
+        m, d = body.material, body.damage
+        values.update({f"labC{i}": body.mesh.contact_label, f"E{i}": m.E, f"nu{i}": m.nu,
+                       f"planeStrain{i}": int(m.plane == "strain"), f"mu{i}": m.mu, f"eta{i}": m.eta,
+                       f"kappa{i}": m.kappa, f"lambdaD{i}": d.lambdaD, f"lambdaU{i}": d.lambdaU,
+                       f"lambdaW{i}": d.lambdaW, f"zeta0{i}": d.zeta0})
+    g, s = scene.glue, scene.solver
+    values.update({"gammaNu": g.gammaNu, "gammaR": g.gammaR, "pTau": g.pTau, "L": g.L, "beta0": g.beta0,
+                   "zetaMin": scene.damage.zetaMin, "contactTol": s.contact_tol,
+                   "contactMaxIt": s.contact_max_iterations, "bmOmega": s.bm_omega, "damageTol": s.damage_tol,
+                   "damageMaxIt": s.damage_max_iterations, "boundTol": s.bound_tol, "linearSolver": s.linear_solver})
+    times = scene.output.times
+    values["outTimes"] = times if isinstance(times, str) else ",".join(expr.number_code(t) for t in times)
+    values["outFields"] = ",".join(scene.output.fields) or "none"
+    return values
+
+
+def to_freefem_scene(scene: Scene, mesh1: Path, mesh2: Path) -> str:
+    """The generated FreeFEM scene file (data only) for edp/main.edp -DSCENE=..."""
+    lines = ["// Generated by orchestrate from a scene file: numbers formatted by Python, expressions",
+             "// written from their parsed form (orchestrate/expr.py). Edit the scene, not this file."]
+    parameters = {**solver_parameters(scene), "mesh1": str(mesh1), "mesh2": str(mesh2)}
+    for name, value in parameters.items():
+        if isinstance(value, str):
+            code = _freefem_string(Path(value)) if name.startswith("mesh") else f'"{value}"'
+        else:
+            code = _number(value)
+        lines.append(f'setParam("{name}", {code});')
+    for i, body in ((1, scene.body1), (2, scene.body2)):
+        lines.append(f"macro dirichlet{i}(ux, uy) {_dirichlet(body)} //")
+        loads = _loads(body, i)
+        if loads:
+            lines.append(f"macro loads{i}(vx, vy) {loads} //")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,105 @@
+"""Scene files: good ones load; each bad one is refused with one message naming the key, the
+value and what is allowed. Bad files are the paper's scene with one text edit."""
+import pytest
+
+from orchestrate.freefem import REPO
+from orchestrate.scene import Scene, SceneError, apply_overrides
+
+PAPER = (REPO / "scenes" / "paper.toml").read_text()
+
+
+def scene_with(tmp_path, old: str, new: str) -> Scene:
+    assert old in PAPER, old
+    path = tmp_path / "scene.toml"
+    path.write_text(PAPER.replace(old, new, 1))
+    return Scene.load(path)
+
+
+def test_the_paper_scene_loads_with_the_paper_values():
+    scene = Scene.load(REPO / "scenes" / "paper.toml")
+    assert (scene.time.T, scene.time.N) == (1.0, 40)
+    assert scene.body1.material.E == 1000 and scene.body2.mesh.n == 32
+    assert [b.type for b in scene.body1.boundary] == ["clamped", "traction", "traction"]
+
+
+def test_a_scene_written_back_loads_to_the_same_scene(tmp_path):
+    scene = Scene.load(REPO / "scenes" / "paper.toml")
+    path = tmp_path / "again.toml"
+    path.write_text(scene.to_toml())
+    assert Scene.load(path) == scene
+
+
+def test_overrides_set_dotted_keys_and_list_items():
+    scene = Scene.load(REPO / "scenes" / "paper.toml", {"time.N": 80, "body1.boundary.1.fy": "-20*t"})
+    assert scene.time.N == 80 and scene.body1.boundary[1].fy == "-20*t"
+
+
+BAD = [
+    ("[body1.material]", "[body1.materal]", ["body1.materal: unknown key", "did you mean 'material'"]),
+    ("[solver]", "[solverr]", ["solverr: unknown key", "did you mean 'solver'"]),
+    ("bm_omega = 1.0", "bm_omegaa = 1.0", ["solver.bm_omegaa: unknown key", "did you mean 'bm_omega'"]),
+    ("N = 40", "N = 0", ["time.N = 0", "greater than or equal to 1"]),
+    ("N = 40", "N = 40.5", ["time.N = 40.5", "integer"]),
+    ("T = 1.0", 'T = "one"', ["time.T = 'one'", "valid number"]),
+    ("T = 1.0", "T = -1.0", ["time.T = -1.0", "greater than 0"]),
+    ("nu = 0.3", "nu = 0.7", ["body1.material.nu = 0.7", "less than 0.5"]),
+    ("nu = 0.3", "nu = -1.5", ["body1.material.nu = -1.5", "greater than -1"]),
+    ("E = 1000.0", "E = -5.0", ["body1.material.E = -5.0", "greater than 0"]),
+    ("E = 1000.0", "E = nan", ["body1.material.E", "finite"]),
+    ("mu = 30.0", "mu = -30.0", ["body1.material", "2 mu + eta > 0"]),
+    ('plane = "stress"', 'plane = "stres"', ["body1.material.plane = 'stres'", "'stress' or 'strain'"]),
+    ("zeta0 = 1.0", "zeta0 = 1.5", ["body1.damage.zeta0 = 1.5", "less than or equal to 1"]),
+    ("beta0 = 1.0", "beta0 = -0.1", ["glue.beta0 = -0.1", "greater than or equal to 0"]),
+    ("L = 1.0", "L = 0.0", ["glue.L = 0.0", "greater than 0"]),
+    ('type = "clamped"\nlabel = 5', 'type = "clmped"\nlabel = 5', ["body1.boundary.0", "'clmped'", "'clamped'"]),
+    ('type = "clamped"\nlabel = 5', 'type = "roller"\nlabel = 5', ["body1.boundary.0.component: missing"]),
+    ('fy = "-10*t"', 'fy = "exec(\\"ls\\")"', ["body1.boundary.1.fy", "'\"' is not allowed"]),
+    ('fy = "-10*t"', 'fy = "-10*t; system(1)"', ["body1.boundary.1.fy", "';' is not allowed"]),
+    ('fy = "-10*t"', "fz = \"-10*t\"", ["body1.boundary.1.fz: unknown key", "did you mean 'fy'"]),
+    ('geo = "meshes/paper_body1.geo"', 'geo = "../../etc/passwd.geo"', ["body1.mesh.geo", "outside meshes/"]),
+    ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/nowhere.geo"', ["body1.mesh.geo", "not found"]),
+    ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/paper_body1-n24.msh"', ["body1.mesh.geo", "not a gmsh .geo"]),
+    ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/paper_body1.geo"\nrectangle = [0, 6, 0, 6]',
+     ["body1.mesh", "exactly one of geo"]),
+    ("n = 24", "n = 0", ["body1.mesh.n = 0", "greater than or equal to 1"]),
+    ('type = "clamped"\nlabel = 5', 'type = "traction"\nlabel = 1', ["contact label"]),
+    ('[[body2.boundary]]\ntype = "clamped"\nlabel = 3', '[[body2.boundary]]\ntype = "clamped"\nlabel = 4',
+     ["body2", "prescribed twice"]),
+    ('times = "final"', "times = [0.5, 2.0]", ["output.times: 2.0 is outside (0, T = 1.0]"]),
+    ('fields = ["bodies", "stress", "contact"]', 'fields = ["bodies", "strain"]', ["output.fields.1 = 'strain'"]),
+    ('linear_solver = "CHOLMOD"', 'linear_solver = "PETSc"', ["solver.linear_solver = 'PETSc'", "'CHOLMOD'"]),
+    ("contact_tol = 1e-10", "contact_tol = 0.0", ["solver.contact_tol = 0.0", "greater than 0"]),
+    ("[time]", "time = 3\n[timee]", ["time: Input should be a valid dictionary", "timee: unknown key"]),
+    ("T = 1.0", "T = 1.0 1.0", ["not valid TOML"]),
+]
+
+
+@pytest.mark.parametrize("old, new, words", BAD, ids=[new.split("\n")[0][:40] for _, new, _ in BAD])
+def test_a_bad_scene_is_refused_with_a_clear_message(tmp_path, old, new, words):
+    with pytest.raises(SceneError) as error:
+        scene_with(tmp_path, old, new)
+    for word in words:
+        assert word in str(error.value), (word, str(error.value))
+
+
+def test_a_body_without_dirichlet_condition_would_float(tmp_path):
+    text = PAPER.replace('[[body2.boundary]]\ntype = "clamped"\nlabel = 3\n\n[[body2.boundary]]\ntype = "clamped"\nlabel = 4',
+                         '[[body2.boundary]]\ntype = "traction"\nlabel = 2\nfx = "1"')
+    path = tmp_path / "float.toml"
+    path.write_text(text)
+    with pytest.raises(SceneError, match="body2.*would float"):
+        Scene.load(path)
+
+
+def test_a_missing_body_is_named(tmp_path):
+    path = tmp_path / "one.toml"
+    path.write_text(PAPER[:PAPER.index("# Body 2")])
+    with pytest.raises(SceneError, match="body2: missing"):
+        Scene.load(path)
+
+
+def test_overrides_into_values_are_refused():
+    with pytest.raises(SceneError, match="holds a value"):
+        apply_overrides({"time": {"N": 3}}, {"time.N.x": 1})
+    with pytest.raises(SceneError, match="not an index"):
+        apply_overrides({"b": [1, 2]}, {"b.5": 1})
