@@ -65,3 +65,12 @@ def test_an_invalid_combination_is_recorded_without_running(tmp_path):
     rows = sweep(SCENE, {"time.N": [0, 20]}, tmp_path, {k: v for k, v in BASE.items() if k != "time.N"}, workers=1)
     assert rows[0]["status"] == "invalid" and "time.N = 0" in rows[0]["error"]
     assert rows[1]["status"] == "completed"
+
+
+def test_a_sweep_runs_on_an_existing_cluster_given_its_address(tmp_path):
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        rows = sweep(SCENE, {"glue.gammaNu": [0.5]}, tmp_path, BASE, scheduler=cluster.scheduler_address)
+        assert rows[0]["status"] == "completed"
+        assert "run_one" in cluster.scheduler.task_prefixes  # the run went through that scheduler
