@@ -3,8 +3,10 @@
 //   1 Γ_C (y = 0)   2 right side (x = 6)   3 top, 3 ≤ x ≤ 6   4 top, 0 ≤ x ≤ 3   5 left side (x = 0)
 // The top is split at x = 3 because the paper's load jumps there; a mesh node must sit on the jump.
 // n = number of elements along each side (h = 6/n). structured = 1 gives a transfinite mesh,
-// which every gmsh version builds identically (n must be even: x = 3 is a node);
-// structured = 0 gives a frontal-Delaunay mesh of size h with n uniform elements on Γ_C.
+// which every gmsh version builds identically (n must be even: x = 3 is a node), with every
+// diagonal the same way, so the meshes of n and 2n are nested (a P1 field of one is a P1 field
+// of the other, and convergence studies measure errors exactly); structured = 0 gives a
+// frontal-Delaunay mesh of size h with n uniform elements on Γ_C.
 DefineConstant[ n = 24, structured = 1 ];
 If (structured && n % 2 == 1)
   Error("paper_body1.geo: n = %g must be even for the structured mesh (x = 3 must be a node)", n);
@@ -27,7 +29,7 @@ Transfinite Curve{1} = n + 1;
 If (structured)
   Transfinite Curve{2, 5} = n + 1;
   Transfinite Curve{3, 4} = n / 2 + 1;
-  Transfinite Surface{1} = {1, 2, 3, 5} Alternate;
+  Transfinite Surface{1} = {1, 2, 3, 5} Left;
 EndIf
 Physical Curve(1) = {1};
 Physical Curve(2) = {2};

@@ -2,8 +2,8 @@
 // Physical curve tags become FreeFEM boundary labels:
 //   1 Γ_C (y = 0)   2 right side (x = 6)   3 bottom (y = −6)   4 left side (x = 0)
 // n = number of elements along each side (h = 6/n); structured = 1 gives a transfinite mesh
-// (the same with every gmsh version), structured = 0 a frontal-Delaunay mesh with n uniform
-// elements on Γ_C.
+// (the same with every gmsh version; every diagonal the same way, so n and 2n are nested),
+// structured = 0 a frontal-Delaunay mesh with n uniform elements on Γ_C.
 DefineConstant[ n = 32, structured = 1 ];
 h = 6 / n;
 Point(1) = {0, 0, 0, h};
@@ -19,7 +19,7 @@ Plane Surface(1) = {1};
 Transfinite Curve{1} = n + 1;
 If (structured)
   Transfinite Curve{2, 3, 4} = n + 1;
-  Transfinite Surface{1} = {1, 2, 3, 4} Alternate;
+  Transfinite Surface{1} = {1, 2, 3, 4} Left;
 EndIf
 Physical Curve(1) = {1};
 Physical Curve(2) = {2};

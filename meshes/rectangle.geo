@@ -18,7 +18,7 @@ Plane Surface(1) = {1};
 Transfinite Curve{1, 3} = n + 1;
 If (structured)
   Transfinite Curve{2, 4} = Ceil((y1 - y0) / h) + 1;
-  Transfinite Surface{1} = {1, 2, 3, 4} Alternate;
+  Transfinite Surface{1} = {1, 2, 3, 4} Left;
 EndIf
 Physical Curve(1) = {1};
 Physical Curve(2) = {2};

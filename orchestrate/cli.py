@@ -47,6 +47,16 @@ def command_sweep(options) -> int:
     return 0 if all(row["status"] != "failed" and row["status"] != "invalid" for row in rows) else 1
 
 
+def command_study(options) -> int:
+    from orchestrate.study import convergence
+
+    convergence(options.scene, options.out, count=options.levels, n1=options.n1, n2=options.n2, steps=options.N,
+                time_mesh_level=options.time_mesh_level, space_steps_level=options.space_steps_level,
+                workers=options.workers, progress=sys.stderr.isatty())
+    print((Path(options.out) / "README.md").read_text())
+    return 0
+
+
 def command_render(options) -> int:
     from orchestrate.render import render_all
 
@@ -75,6 +85,19 @@ def main(argv: list[str] | None = None) -> int:
     sweep.add_argument("--workers", type=int, default=2, help="LocalCluster workers (default 2)")
     sweep.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
     sweep.set_defaults(handler=command_sweep)
+    study = commands.add_parser("study", help="studies of a scene: convergence")
+    kinds = study.add_subparsers(dest="kind", required=True)
+    convergence = kinds.add_parser("convergence", help="lock-step, time-only and space-only ladders, errors and rates")
+    convergence.add_argument("scene", help="a scene whose meshes are nested under n -> 2n, e.g. scenes/paper.toml")
+    convergence.add_argument("--levels", type=int, default=6, help="levels per ladder, the finest is the reference")
+    convergence.add_argument("--n1", type=int, default=6, help="body 1 elements per side at the coarsest level")
+    convergence.add_argument("--n2", type=int, default=8, help="body 2 elements per side at the coarsest level")
+    convergence.add_argument("--N", type=int, default=20, help="time steps at the coarsest level")
+    convergence.add_argument("--time-mesh-level", type=int, default=3, help="mesh level of the time-only ladder")
+    convergence.add_argument("--space-steps-level", type=int, default=4, help="step level of the space-only ladder")
+    convergence.add_argument("--workers", type=int, default=2)
+    convergence.add_argument("--out", default="results/convergence")
+    convergence.set_defaults(handler=command_study)
     render = commands.add_parser("render", help="images of a run folder")
     render.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     render.add_argument("--out", help="where to write the images (default: the run folder)")

@@ -55,6 +55,21 @@ class Result:
         return meshio.read(files[part])
 
 
+STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
+
+
+def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
+    """A state_NNNN.txt file (edp/lib/output.idp): t, then each array as its length and values."""
+    tokens = Path(path).read_text().split()
+    state: dict[str, np.ndarray | float] = {"t": float(tokens[0])}
+    position = 1
+    for name in STATE_ARRAYS:
+        length = int(tokens[position])
+        state[name] = np.array(tokens[position + 1: position + 1 + length], dtype=float)
+        position += 1 + length
+    return state
+
+
 def load_result(folder: str | Path) -> Result:
     folder = Path(folder)
     if not (folder / "history.csv").exists():

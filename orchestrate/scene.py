@@ -207,10 +207,11 @@ class Solver(Strict):
 
 
 class Output(Strict):
-    """.vtu files at `times` ("final", "all", "none" or a list of times in (0, T]), with the
-    `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line)."""
+    """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
+    `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
+    "state" (the unknowns, for error norms between runs)."""
     times: Literal["final", "all", "none"] | list[float] = "final"
-    fields: list[Literal["bodies", "stress", "contact"]] = ["bodies", "stress", "contact"]
+    fields: list[Literal["bodies", "stress", "contact", "state"]] = ["bodies", "stress", "contact"]
     images: bool = True
 
 

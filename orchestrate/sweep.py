@@ -88,17 +88,12 @@ def make_client(workers: int, scheduler: str | None):
     return Client(cluster)
 
 
-def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
-          workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
-    """Run every combination of `grid` (dotted scene keys → values) over the scene with `base`
-    overrides; returns the rows of sweep.csv (written in `out`)."""
-    out = Path(out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | None = None) -> tuple[list, list]:
+    """Rows for runs of the scene with each assignment of overrides (on top of `base`), in folders
+    of `out` named by the assignment, and the jobs among them still to run."""
     sources = source_digest()
-    rows, pending = [], []
-    keys = list(grid)
-    for values in itertools.product(*(grid[key] for key in keys)):
-        assignment = dict(zip(keys, values))
+    rows, jobs = [], []
+    for assignment in assignments:
         row = {**assignment, "folder": folder_name(assignment)}
         rows.append(row)
         try:
@@ -111,23 +106,37 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
         if completed_before(folder, digest):
             row.update(row_of(folder, "skipped (complete)"))
         else:
-            pending.append((row, resolved.model_dump(mode="json"), str(folder), digest))
-    if pending:
-        run_pending(pending, workers, scheduler, progress)
+            jobs.append((row, resolved.model_dump(mode="json"), str(folder), digest))
+    return rows, jobs
+
+
+def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
+          workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
+    """Run every combination of `grid` (dotted scene keys → values) over the scene with `base`
+    overrides; returns the rows of sweep.csv (written in `out`)."""
+    out = Path(out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    keys = list(grid)
+    assignments = [dict(zip(keys, values)) for values in itertools.product(*(grid[key] for key in keys))]
+    rows, jobs = plan(scene, assignments, out, base)
+    run_jobs(jobs, workers, scheduler, progress)
     write_table(out / "sweep.csv", rows, keys)
     return rows
 
 
-def run_pending(pending, workers, scheduler, progress) -> None:
+def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
+    """Run the jobs of `plan` on dask.distributed; each row gets its status and figures."""
+    if not jobs:
+        return
     from dask.distributed import as_completed
 
     client = make_client(workers, scheduler)
     try:
-        futures = {client.submit(run_one, data, folder, digest, pure=False): row for row, data, folder, digest in pending}
+        futures = {client.submit(run_one, data, folder, digest, pure=False): row for row, data, folder, digest in jobs}
         bar = None
         if progress:
             from tqdm import tqdm
-            bar = tqdm(total=len(futures), unit="run", desc="sweep")
+            bar = tqdm(total=len(futures), unit="run", desc="runs")
         for future in as_completed(futures):
             futures[future].update(future.result())
             if bar is not None:

@@ -1,0 +1,206 @@
+"""Convergence study of a scene: python -m orchestrate study convergence SCENE.
+
+Three ladders of runs, each level halving what the ladder refines:
+  lockstep  h and k together: body 1 with n1₀·2^ℓ elements per side, body 2 with n2₀·2^ℓ, N₀·2^ℓ steps
+  time      k alone, on a fixed fine mesh
+  space     h alone, at a fixed small step
+The meshes must be nested under n → 2n (the paper's structured family is) so that the error norms
+are exact. Every run saves its state (u, ζ, β) at the N₀ instants of the coarsest level, which all
+levels share; edp/tools/errors.edp measures there the distance of each level to the finest level
+of its ladder (the reference) and to the next level. The error of a level is the maximum over the
+instants, as in Theorem 2.1 of the seed. Observed rates are log₂ of successive error ratios and a
+least-squares slope over the finest three levels below the reference.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from orchestrate.freefem import REPO, run_script
+from orchestrate.results import load_result, read_state
+from orchestrate.scene import Scene
+from orchestrate.sweep import plan, run_jobs
+
+QUANTITIES = ("errorV", "errorZeta", "errorBeta")
+LABELS = {"errorV": "‖u − u_ref‖_V", "errorZeta": "‖ζ − ζ_ref‖_L2", "errorBeta": "‖β − β_ref‖_L2(Γ_C)"}
+THEORY = {"lockstep": 0.75, "space": 0.75, "time": 1.0}  # Theorem 2.1: c(h^{3/4} + k)
+
+
+@dataclass(frozen=True)
+class Ladder:
+    name: str
+    levels: list[dict]  # overrides per level, coarse to fine
+
+    def step(self, level: int) -> int:
+        return self.levels[level]["time.N"]
+
+
+def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, space_steps_level: int) -> list[Ladder]:
+    def mesh(level):
+        return {"body1.mesh.n": n1 * 2 ** level, "body2.mesh.n": n2 * 2 ** level}
+
+    return [Ladder("lockstep", [{**mesh(level), "time.N": steps * 2 ** level} for level in range(count)]),
+            Ladder("time", [{**mesh(time_mesh_level), "time.N": steps * 2 ** level} for level in range(count)]),
+            Ladder("space", [{**mesh(level), "time.N": steps * 2 ** space_steps_level} for level in range(count)])]
+
+
+def distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
+    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants."""
+    first, second = load_result(run).params, load_result(reference).params
+    with tempfile.TemporaryDirectory() as folder:
+        pairs, table = Path(folder) / "pairs.txt", Path(folder) / "errors.csv"
+        lines = [f"{run}/state_{j * run_steps // instants:04d}.txt {reference}/state_{j * reference_steps // instants:04d}.txt"
+                 for j in range(1, instants + 1)]
+        pairs.write_text(f"{len(lines)}\n" + "\n".join(lines) + "\n")
+        done = run_script(REPO / "edp" / "tools" / "errors.edp",
+                          ["-mesh1", first["meshFile1"], "-mesh2", first["meshFile2"], "-refMesh1", second["meshFile1"],
+                           "-refMesh2", second["meshFile2"], "-pairs", pairs, "-out", table])
+        if done.returncode != 0:
+            raise RuntimeError(f"errors.edp failed for {run} against {reference}: {done.error_line}")
+        with open(table) as handle:
+            return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(handle)]
+
+
+def slope(sizes, errors) -> float:
+    """Least-squares slope of log(error) against log(size)."""
+    return float(np.polyfit(np.log(sizes), np.log(errors), 1)[0])
+
+
+def measure(ladder: Ladder, folders: list[Path], instants: int, scene: Scene) -> list[dict]:
+    """One row per level: sizes, errors against the reference and against the next level."""
+    reference, rows = len(folders) - 1, []
+    for level, overrides in enumerate(ladder.levels):
+        contact_length = read_state(sorted(folders[level].glob("state_*.txt"))[0])["s"][-1]
+        row = {"ladder": ladder.name, "level": level, "n1": overrides["body1.mesh.n"], "n2": overrides["body2.mesh.n"],
+               "N": overrides["time.N"], "h1": contact_length / overrides["body1.mesh.n"],
+               "k": scene.time.T / overrides["time.N"], "seconds": load_result(folders[level]).history["stepSeconds"].sum()}
+        if level < reference:
+            to_reference = distances(folders[level], folders[reference], ladder.step(level), ladder.step(reference), instants)
+            to_next = distances(folders[level], folders[level + 1], ladder.step(level), ladder.step(level + 1), instants)
+            norm = max(r["normV"] for r in to_reference)
+            for quantity in QUANTITIES:
+                row[quantity] = max(r[quantity] for r in to_reference)
+                row["next" + quantity[len("error"):]] = max(r[quantity] for r in to_next)
+            row["relativeErrorV"] = row["errorV"] / norm
+        rows.append(row)
+    return rows
+
+
+def rates(rows: list[dict], ladder: str) -> dict[str, dict[str, float]]:
+    """Per quantity: the slope over the finest three levels below the reference, against the
+    reference and from successive differences (the latter free of the reference's own error)."""
+    measured = [row for row in rows if row["ladder"] == ladder and "errorV" in row][-3:]
+    size = "k" if ladder == "time" else "h1"
+    result = {}
+    for quantity in QUANTITIES:
+        name = quantity[len("error"):]
+        result[quantity] = {"reference": slope([r[size] for r in measured], [r[quantity] for r in measured]),
+                            "successive": slope([r[size] for r in measured], [r["next" + name] for r in measured])}
+    return result
+
+
+def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: int = 6, n2: int = 8, steps: int = 20,
+                time_mesh_level: int = 3, space_steps_level: int = 4, workers: int = 2, progress: bool = False) -> list[dict]:
+    """Run the three ladders and write convergence.csv, README.md and convergence.png in `out`."""
+    out = Path(out).resolve()
+    scene = Scene.load(scene_path)
+    instants = steps
+    times = [j * scene.time.T / instants for j in range(1, instants + 1)]
+    base = {"output.times": times, "output.fields": ["state"], "output.images": False}
+    studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level)
+    jobs, planned = [], {}
+    for ladder in studied:
+        rows, ladder_jobs = plan(scene_path, ladder.levels, out / "runs" / ladder.name, base)
+        planned[ladder.name] = rows
+        jobs += ladder_jobs
+    run_jobs(jobs, workers, None, progress)
+    failed = [row for rows in planned.values() for row in rows if row["status"] in ("failed", "invalid")]
+    if failed:
+        raise RuntimeError("runs of the study failed: " + "; ".join(f"{r['folder']}: {r['error']}" for r in failed))
+    table = []
+    for ladder in studied:
+        folders = [out / "runs" / ladder.name / row["folder"] for row in planned[ladder.name]]
+        table += measure(ladder, folders, instants, scene)
+    write_outputs(out, table, scene_path, count, n1, n2, steps, time_mesh_level, space_steps_level)
+    return table
+
+
+COLUMNS = ["ladder", "level", "n1", "n2", "N", "h1", "k", "errorV", "relativeErrorV", "errorZeta", "errorBeta",
+           "nextV", "nextZeta", "nextBeta", "seconds"]
+
+
+def write_outputs(out: Path, table: list[dict], scene_path, count, n1, n2, steps, time_mesh_level, space_steps_level):
+    with open(out / "convergence.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(table)
+    plot(out / "convergence.png", table)
+    command = (f"python -m orchestrate study convergence {Path(scene_path).as_posix()} --levels {count} --n1 {n1} --n2 {n2} "
+               f"--N {steps} --time-mesh-level {time_mesh_level} --space-steps-level {space_steps_level}")
+    (out / "README.md").write_text(markdown(table, command))
+
+
+def _format(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.3e}" if value and (abs(value) < 1e-2 or abs(value) >= 1e4) else f"{value:.4g}"
+    return str(value)
+
+
+def markdown(table: list[dict], command: str) -> str:
+    lines = ["# Convergence study", "", "Reproduce (from the repository root):", "", "```sh", command, "```", "",
+             "Errors are maxima over the shared instants of the distance to the finest level of each ladder "
+             "(the reference); *next* is the distance to the next finer level. Norms as in Theorem 2.1 of the seed: "
+             "‖·‖_V = (Σ_ℓ ∫ ε:ε)^½ for u, L² for ζ on the bodies and for β on Γ_C. Nested structured meshes make "
+             "every norm exact (edp/tools/errors.edp).", ""]
+    for ladder in ("lockstep", "time", "space"):
+        rows = [row for row in table if row["ladder"] == ladder]
+        if not rows:
+            continue
+        lines += [f"## {ladder}", "", "| n1 | n2 | N | " + " | ".join(LABELS[q] for q in QUANTITIES)
+                  + " | rel. V error | next V | next ζ | next β | solver s |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for row in rows:
+            values = [row.get(key) for key in ("errorV", "errorZeta", "errorBeta", "relativeErrorV", "nextV", "nextZeta",
+                                               "nextBeta")]
+            cells = ["reference" if v is None else _format(v) for v in values]
+            lines.append(f"| {row['n1']} | {row['n2']} | {row['N']} | " + " | ".join(cells) + f" | {row['seconds']:.1f} |")
+        observed = rates(table, ladder)
+        size = "k" if ladder == "time" else "h"
+        lines += ["", f"Observed rates in {size} over the finest three levels (theory: {size}^{THEORY[ladder]:g}):", ""]
+        for quantity in QUANTITIES:
+            pair = observed[quantity]
+            lines.append(f"- {LABELS[quantity]}: {pair['reference']:.2f} against the reference, "
+                         f"{pair['successive']:.2f} from successive differences")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot(target: Path, table: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    for axis, ladder in zip(axes, ("lockstep", "time", "space")):
+        rows = [row for row in table if row["ladder"] == ladder and "errorV" in row]
+        size = "k" if ladder == "time" else "h1"
+        sizes = np.array([row[size] for row in rows])
+        for quantity, marker in zip(QUANTITIES, "osd"):
+            errors = np.array([row[quantity] for row in rows])
+            axis.loglog(sizes, errors, marker + "-", label=LABELS[quantity])
+            order = THEORY[ladder]
+            axis.loglog(sizes, errors[-1] * (sizes / sizes[-1]) ** order, ":", color=axis.lines[-1].get_color(), lw=1)
+        axis.set_xlabel("time step k" if ladder == "time" else "mesh size h1 (body 1)")
+        axis.set_title(f"{ladder}: dotted = {('k' if ladder == 'time' else 'h')}^{THEORY[ladder]:g}")
+        axis.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("max over t of the error")
+    axes[0].legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(target, dpi=110)
+    plt.close(figure)
