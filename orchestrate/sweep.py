@@ -41,9 +41,11 @@ def folder_name(assignment: dict) -> str:
 
 
 def source_digest() -> str:
-    """The solver's FreeFEM sources and the mesh sources: a change reruns every run."""
+    """The solver's FreeFEM sources (driver, libraries) and the mesh sources: a change reruns
+    every run. Tools such as edp/tools/errors.edp do not change a run."""
     digest = hashlib.sha256()
-    for path in sorted([*(REPO / "edp").rglob("*.[ei]dp"), *(REPO / "meshes").glob("*.geo")]):
+    solver = [REPO / "edp" / "main.edp", *(REPO / "edp" / "lib").glob("*.idp")]
+    for path in sorted([*solver, *(REPO / "meshes").glob("*.geo")]):
         digest.update(path.relative_to(REPO).as_posix().encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()

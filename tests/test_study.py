@@ -1,0 +1,35 @@
+"""The convergence study command on a quick ladder (three levels of each kind); the full ladder
+is `python -m orchestrate study convergence scenes/paper.toml` (results/convergence)."""
+import csv
+
+import pytest
+
+from orchestrate.freefem import REPO
+from orchestrate.study import convergence, rates
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("study")
+    return out, convergence(REPO / "scenes" / "paper.toml", out, count=3, time_mesh_level=1, space_steps_level=1)
+
+
+def test_study_writes_its_table_report_and_plot(quick):
+    out, _ = quick
+    with open(out / "convergence.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [row["ladder"] for row in rows] == ["lockstep"] * 3 + ["time"] * 3 + ["space"] * 3
+    report = (out / "README.md").read_text()
+    assert "python -m orchestrate study convergence" in report and "Observed rates" in report
+    assert (out / "convergence.png").stat().st_size > 10000
+
+
+def test_errors_fall_at_least_at_the_theorems_rates(quick):
+    # Theorem 2.1: c(h^{3/4} + k). Successive differences are free of the reference's own error.
+    _, table = quick
+    for ladder in ("lockstep", "time", "space"):
+        rows = [row for row in table if row["ladder"] == ladder and "errorV" in row]
+        for quantity in ("errorV", "errorZeta", "errorBeta"):
+            assert rows[0][quantity] > rows[1][quantity] > 0, (ladder, quantity)
+    observed = {ladder: rates(table, ladder)["errorV"]["successive"] for ladder in ("lockstep", "time", "space")}
+    assert observed["lockstep"] >= 0.75 and observed["space"] >= 0.75 and observed["time"] >= 1.0, observed
