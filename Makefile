@@ -3,8 +3,10 @@
 SHELL := /bin/bash
 VENV := .venv
 PYTHON := $(VENV)/bin/python
-# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen.
-APT_PACKAGES := freefem++ libfreefem++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1
+# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen, and the
+# single-threaded OpenBLAS (CHOLMOD's back-substitutions 1.5-2x faster than with the reference
+# BLAS; one thread keeps runs deterministic and leaves the cores to parallel runs).
+APT_PACKAGES := freefem++ libfreefem++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: setup system-packages paper test
