@@ -57,6 +57,14 @@ def command_study(options) -> int:
     return 0
 
 
+def command_bench(options) -> int:
+    from orchestrate.bench import bench
+
+    bench(options.out, levels=options.levels)
+    print((Path(options.out) / "README.md").read_text())
+    return 0
+
+
 def command_render(options) -> int:
     from orchestrate.render import render_all
 
@@ -98,6 +106,10 @@ def main(argv: list[str] | None = None) -> int:
     convergence.add_argument("--workers", type=int, default=2)
     convergence.add_argument("--out", default="results/convergence")
     convergence.set_defaults(handler=command_study)
+    benchmark = commands.add_parser("bench", help="run time against error on this machine (results/bench)")
+    benchmark.add_argument("--levels", type=int, default=5, help="measured levels per variant (finest: reference)")
+    benchmark.add_argument("--out", default="results/bench")
+    benchmark.set_defaults(handler=command_bench)
     render = commands.add_parser("render", help="images of a run folder")
     render.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     render.add_argument("--out", help="where to write the images (default: the run folder)")

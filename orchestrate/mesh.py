@@ -23,33 +23,35 @@ class MeshError(RuntimeError):
     """gmsh could not mesh a body."""
 
 
-def cache_key(source: Path, numbers: dict[str, float]) -> str:
+def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
     import gmsh
 
     digest = hashlib.sha256()
     digest.update(source.read_bytes())
-    digest.update(json.dumps(sorted(numbers.items())).encode())
+    digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
     digest.update(gmsh.__version__.encode())
     return digest.hexdigest()[:24]
 
 
-def body_mesh(source: Path, numbers: dict[str, float], cache: Path = CACHE) -> Path:
-    """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them)."""
+def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None) -> Path:
+    """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them), its
+    triangles split in four `refine` times (red refinement: the meshes are nested)."""
+    cache = cache or CACHE
     committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
-    if set(numbers) == {"n"} and committed.exists():
+    if set(numbers) == {"n"} and refine == 0 and committed.exists():
         return committed
-    target = cache / f"{source.stem}-{cache_key(source, numbers)}.msh"
+    target = cache / f"{source.stem}-{cache_key(source, numbers, refine)}.msh"
     if target.exists():
         return target
     cache.mkdir(parents=True, exist_ok=True)
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
     with _GMSH:
-        generate(source, numbers, partial)
+        generate(source, numbers, refine, partial)
     os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     return target
 
 
-def generate(source: Path, numbers: dict[str, float], target: Path) -> None:
+def generate(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
     import gmsh
 
     # interruptible=False lets gmsh start outside the main thread (dask workers). DefineConstant
@@ -66,6 +68,8 @@ def generate(source: Path, numbers: dict[str, float], target: Path) -> None:
         if errors:
             raise MeshError("; ".join(errors))
         gmsh.model.mesh.generate(2)
+        for _ in range(refine):
+            gmsh.model.mesh.refine()
         gmsh.write(str(target))
     except Exception as error:
         log = "\n".join(line for line in gmsh.logger.get() if "Error" in line) or str(error)

@@ -26,6 +26,7 @@ from orchestrate.scene import Scene, to_freefem_scene
 STEP = re.compile(r"^step (\d+)/(\d+) ")
 SETUP = re.compile(r"^set-up: .*, ([0-9.eE+-]+) s$")
 DONE = re.compile(r"^done: \d+ steps in ([0-9.eE+-]+) s")
+TIMING = re.compile(r"^timing: setup (\S+) loop (\S+) output (\S+) backsubs-per-step (\S+)")
 
 
 class RunError(RuntimeError):
@@ -69,8 +70,11 @@ def default_folder(scene_path: Path | None) -> Path:
 
 
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
-        force: bool = False, progress: bool = False) -> Result:
-    """Run a scene (a Scene or a .toml path, with dotted-key overrides) into folder `out`."""
+        force: bool = False, progress: bool = False, mesh_cache: Path | None = None,
+        solver_flags: tuple = ()) -> Result:
+    """Run a scene (a Scene or a .toml path, with dotted-key overrides) into folder `out`.
+    mesh_cache: another mesh cache folder (the benchmark's, to time meshing); solver_flags:
+    extra driver flags that change no result (e.g. -measureSolves 10)."""
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
     out = (Path(out) if out else default_folder(scene_path)).resolve()  # FreeFem++ runs in the repository
@@ -82,7 +86,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     started = time.perf_counter()
     try:
         with sigterm_as_interrupt():
-            summary = build(scene, partial, progress)
+            summary = build(scene, partial, progress, mesh_cache, solver_flags)
     except (KeyboardInterrupt, Interrupted) as error:
         reason = str(error) or "Ctrl-C"
         (partial / "INTERRUPTED").write_text(f"This run was interrupted ({reason}); its files are incomplete.\n")
@@ -105,12 +109,13 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     return load_result(out)
 
 
-def build(scene: Scene, folder: Path, progress: bool) -> dict:
+def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = ()) -> dict:
     """Everything of a run inside `folder`; returns the summary (without the total wall time)."""
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
-    meshes = [body_mesh(body.mesh.source(), body.mesh.numbers()) for body in (scene.body1, scene.body2)]
+    meshes = [body_mesh(body.mesh.source(), body.mesh.numbers(), body.mesh.refine, mesh_cache)
+              for body in (scene.body1, scene.body2)]
     timing["meshing"] = time.perf_counter() - clock
     scene_file = folder / "scene.idp"
     scene_file.write_text(to_freefem_scene(scene, *meshes))
@@ -129,9 +134,12 @@ def build(scene: Scene, folder: Path, progress: bool) -> dict:
             solver_cpu["setup"] = float(match.group(1))
         elif match := DONE.match(line):
             solver_cpu["total"] = float(match.group(1))
+        elif match := TIMING.match(line):
+            solver_cpu.update(zip(("setupCpu", "loopCpu", "outputCpu", "backsubsPerStep"), map(float, match.groups())))
 
     try:
-        done = run_logged(MAIN, ["-out", folder], folder / "run.log", on_line, defines={"SCENE": scene_file})
+        done = run_logged(MAIN, ["-out", folder, *solver_flags], folder / "run.log", on_line,
+                          defines={"SCENE": scene_file})
     finally:
         if bar is not None:
             bar.close()
@@ -146,15 +154,18 @@ def build(scene: Scene, folder: Path, progress: bool) -> dict:
         from orchestrate.render import render_all
         render_all(result, folder)
     timing["images"] = time.perf_counter() - clock
-    timing["solverSetupCpu"] = solver_cpu.get("setup")
-    timing["solverLoopCpu"] = solver_cpu["total"] - solver_cpu["setup"] if len(solver_cpu) == 2 else None
+    timing["solverSetupCpu"] = solver_cpu.get("setupCpu")
+    timing["solverLoopCpu"] = solver_cpu.get("loopCpu")
+    timing["solverOutputCpu"] = solver_cpu.get("outputCpu")
+    timing["solverTotalCpu"] = solver_cpu.get("total")
+    timing["backsubsPerStep"] = solver_cpu.get("backsubsPerStep")
     final = {name: float(values[-1]) for name, values in result.history.items()}
     return {
         "title": scene.title,
         "status": "completed",
         "final": final,
         "contactItersPerStep": float(result.history["contactIters"].mean()),
-        "timing": {name: round(value, 4) if value is not None else None for name, value in timing.items()},
+        "timing": {name: round(value, 6) if value is not None else None for name, value in timing.items()},
         "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
         "scene": scene.model_dump(mode="json"),
     }

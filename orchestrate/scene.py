@@ -56,6 +56,7 @@ class Mesh(Strict):
     rectangle: tuple[float, float, float, float] | None = Field(default=None, description="x0, x1, y0, y1")
     n: int = Field(ge=1, le=4096)
     structured: bool | None = None
+    refine: int = Field(0, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Annotated[float, Field(allow_inf_nan=False)]] = {}
     contact_label: int = Field(ge=0, le=2**30)
 
@@ -197,6 +198,7 @@ class DamageNumerics(Strict):
 
 
 class Solver(Strict):
+    contact: Literal["pdas", "bm"] = "pdas"  # primal–dual active set, or Bermúdez–Moreno (the paper's)
     contact_tol: float = Field(1e-10, gt=0, allow_inf_nan=False)
     contact_max_iterations: int = Field(10000, ge=1)
     bm_omega: float = Field(1.0, gt=0, allow_inf_nan=False)
@@ -412,7 +414,7 @@ def solver_parameters(scene: Scene) -> dict[str, float | int | str]:
                        f"lambdaW{i}": d.lambdaW, f"zeta0{i}": d.zeta0})
     g, s = scene.glue, scene.solver
     values.update({"gammaNu": g.gammaNu, "gammaR": g.gammaR, "pTau": g.pTau, "L": g.L, "beta0": g.beta0,
-                   "zetaMin": scene.damage.zetaMin, "contactTol": s.contact_tol,
+                   "zetaMin": scene.damage.zetaMin, "contactSolver": s.contact, "contactTol": s.contact_tol,
                    "contactMaxIt": s.contact_max_iterations, "bmOmega": s.bm_omega, "damageTol": s.damage_tol,
                    "damageMaxIt": s.damage_max_iterations, "boundTol": s.bound_tol, "linearSolver": s.linear_solver})
     times = scene.output.times

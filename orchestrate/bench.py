@@ -1,0 +1,214 @@
+"""python -m orchestrate bench: run time against error for the paper's scene on this machine.
+
+Three variants, each a lock-step ladder (mesh refined and time step halved together), run one
+after the other so that no run competes with another for the two cores:
+  uniform, pdas   the paper's structured meshes, body 1 with 6·2^ℓ elements per side, N = 20·2^ℓ,
+                  the active-set contact solver (the default)
+  uniform, bm     the same runs with Bermúdez–Moreno, the paper's contact algorithm
+  graded, pdas    scenes/paper_graded.toml: graded gmsh meshes split in four ℓ times, N = 40·2^ℓ
+Per run: the time split (FreeFem++ start-up, meshing with an empty cache, set-up, time loop,
+output), the overhead ratio (time per step over the back-substitutions a step cannot avoid,
+measured in the same process), and the error ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V. A family's meshes
+are nested, so errors against its finest level are exact (edp/tools/errors.edp); the error of a
+level is then estimated by the distances to the finer levels plus a geometric tail at the
+observed rate, the same rule for every family, so the curves compare like with like. Also: the
+time of the paper's scene at h1 = 6/96, N = 320 by FreeFem++ alone, and the sparse solvers timed
+on each matrix. Writes bench.csv, README.md and workprecision.png.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.results import load_result
+from orchestrate.runner import run
+from orchestrate.study import distances
+
+MEASURE = 10  # repetitions of the unavoidable back-substitutions timed after each run
+
+
+def variants(levels: int) -> dict[str, tuple[Path, list[dict]]]:
+    """`levels` measured levels per family, plus one finer as its reference."""
+    # structured given explicitly: every level is meshed, none read from the committed default
+    uniform = [{"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l, "body1.mesh.structured": True,
+                "body2.mesh.structured": True, "time.N": 20 * 2 ** l} for l in range(levels + 1)]
+    graded = [{"body1.mesh.refine": l, "body2.mesh.refine": l, "time.N": 40 * 2 ** l} for l in range(levels)]
+    bm = [{**level, "solver.contact": "bm"} for level in uniform[:-1]]
+    paper, graded_scene = REPO / "scenes" / "paper.toml", REPO / "scenes" / "paper_graded.toml"
+    return {"uniform, pdas": (paper, uniform), "uniform, bm": (paper, bm), "graded, pdas": (graded_scene, graded)}
+
+
+def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
+    base = {"output.times": "final", "output.fields": ["state"], "output.images": False}
+    result = run(scene, folder, {**base, **overrides}, force=True, mesh_cache=cache,
+                 solver_flags=("-measureSolves", MEASURE))
+    timing = json.loads((folder / "summary.json").read_text())["timing"]
+    steps = overrides["time.N"]
+    measured = timing["backsubsPerStep"] * MEASURE
+    solver_wall = timing["solver"] - measured
+    return {"nodes1": _nodes(result, 1), "nodes2": _nodes(result, 2), "N": steps,
+            "startup": solver_wall - (timing["solverTotalCpu"] - measured), "meshing": timing["meshing"],
+            "setup": timing["solverSetupCpu"], "loop": timing["solverLoopCpu"] - measured,
+            "output": timing["solverOutputCpu"], "wall": timing["meshing"] + solver_wall,
+            "overheadRatio": (timing["solverLoopCpu"] - measured) / steps / timing["backsubsPerStep"],
+            "contactIters": float(result.history["contactIters"].mean()), "normV": float(result.history["normV"][-1])}
+
+
+def _nodes(result, body: int) -> int:
+    with open(result.params[f"meshFile{body}"]) as handle:
+        for line in handle:
+            if line.startswith("$Nodes"):
+                return int(next(handle))
+    return 0
+
+
+def final_distance(run_folder: Path, reference: Path) -> tuple[float, float]:
+    """‖u(T) − u_ref(T)‖_V and ‖u_ref(T)‖_V."""
+    steps = [load_result(folder).params["N"] for folder in (run_folder, reference)]
+    row = distances(run_folder, reference, steps[0], steps[1], 1)[0]
+    return row["errorV"], row["normV"]
+
+
+def estimated_errors(differences: list[float]) -> list[float]:
+    """e_ℓ ≈ Σ_{j≥ℓ} d_j + a geometric tail d_last·q/(1 − q), q the last observed ratio d_{j+1}/d_j."""
+    q = min(differences[-1] / differences[-2], 0.95) if len(differences) > 1 else 0.5
+    tail = differences[-1] * q / (1 - q)
+    return [sum(differences[level:]) + tail for level in range(len(differences))]
+
+
+def solver_table(folder: Path, steps: int) -> list[dict]:
+    """Factorization and solve times of every sparse solver on every matrix of a level."""
+    done = run_script(REPO / "edp" / "tools" / "solvers.edp",
+                      ["-mesh1", folder / "mesh1.msh", "-mesh2", folder / "mesh2.msh", "-N", steps, "-out", folder])
+    if done.returncode != 0:
+        raise RuntimeError(f"solvers.edp failed: {done.error_line}")
+    rows = []
+    for line in done.stdout.splitlines():
+        if line.startswith("solver "):
+            _, matrix, solver, dofs, factor, solve = line.split()
+            rows.append({"matrix": matrix, "solver": solver, "dofs": int(dofs), "factorSeconds": float(factor),
+                         "solveSeconds": float(solve)})
+    return rows
+
+
+def bench(out: str | Path, levels: int = 5) -> list[dict]:
+    out = Path(out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        scratch = Path(scratch)
+        folders: dict[str, list[Path]] = {}
+        for name, (scene, ladder) in variants(levels).items():
+            cache = scratch / "meshes" / name.replace(", ", "-")
+            for level, overrides in enumerate(ladder):
+                folder = scratch / name.replace(", ", "-") / f"level{level}"
+                rows.append({"variant": name, "level": level, **timed_run(scene, overrides, folder, cache)})
+                folders.setdefault(name, []).append(folder)
+        for name, paths in folders.items():
+            family = "uniform, pdas" if name == "uniform, bm" else name
+            reference = folders[family][-1]
+            own = [row for row in rows if row["variant"] == name]
+            references = [row for row in rows if row["variant"] == family]
+            for level, row in enumerate(own[: len(references) - 1]):
+                error, norm = final_distance(paths[level], reference)
+                row["errorToReference"] = error / norm
+                following = folders[family][level + 1]
+                row["distanceToNext"] = final_distance(paths[level], following)[0] / norm
+        for name in folders:
+            family = "uniform, pdas" if name == "uniform, bm" else name
+            distances_ = [row["distanceToNext"] for row in rows if row["variant"] == family and "distanceToNext" in row]
+            estimates = estimated_errors(distances_)
+            for row in rows:
+                if row["variant"] == name and "distanceToNext" in row:
+                    row["errorEstimate"] = estimates[row["level"]]
+        # the finest measured uniform level: h1 = 6/96 at the default five levels
+        fine = load_result(folders["uniform, pdas"][-2]).params
+        (scratch / "solvers").mkdir()
+        for body in (1, 2):
+            (scratch / "solvers" / f"mesh{body}.msh").write_bytes(Path(fine[f"meshFile{body}"]).read_bytes())
+        solvers = solver_table(scratch / "solvers", fine["N"])
+        target = None
+        if fine["N"] == 320:
+            target = target_run(Path(fine["meshFile1"]), Path(fine["meshFile2"]), scratch / "target")
+    write(out, rows, solvers, target, levels)
+    return rows
+
+
+def target_run(mesh1: Path, mesh2: Path, folder: Path, repeats: int = 3) -> dict:
+    """The paper's scene at h1 = 6/96, h2 = 6/128, N = 320 by FreeFem++ alone: wall seconds
+    including its start-up, best of `repeats`."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        done = run_script(MAIN, ["-mesh1", mesh1, "-mesh2", mesh2, "-N", 320, "-out", folder])
+        times.append(time.perf_counter() - start)
+        if done.returncode != 0:
+            raise RuntimeError(f"6/96 run failed: {done.error_line}")
+    history = load_result(folder).history
+    return {"wall": min(times), "steps": 320, "stepMs": 1000 * float(np.mean(history["stepSeconds"]))}
+
+
+COLUMNS = ["variant", "level", "nodes1", "nodes2", "N", "wall", "startup", "meshing", "setup", "loop", "output",
+           "overheadRatio", "contactIters", "normV", "errorToReference", "distanceToNext", "errorEstimate"]
+
+
+def write(out: Path, rows: list[dict], solvers: list[dict], target: dict, levels: int) -> None:
+    with open(out / "bench.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    plot(out / "workprecision.png", rows)
+    lines = ["# Benchmark: run time against error, the paper's scene", "",
+             "Reproduce (from the repository root; about ten minutes on 2 cores):", "", "```sh",
+             f"python -m orchestrate bench --levels {levels}", "```", "",
+             "Times in seconds: *wall* = meshing (empty cache) + FreeFem++ (start-up, set-up, time loop, output); "
+             "set-up, loop and output are FreeFEM's own CPU clock. *overhead* = time per step / the back-substitutions "
+             "a step cannot avoid (one per body for u, one per body for ζ), timed in the same process. Errors: "
+             "‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V against the finest level of the variant's family (exact: nested "
+             "meshes); *estimate* adds to the distances to the finer levels a geometric tail at the observed rate.", "",
+             "| variant | level | nodes (body 1, 2) | N | wall | start-up | meshing | set-up | loop | output | overhead | "
+             "contact it/step | error to ref. | error estimate |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        cells = [row["variant"], row["level"], f"{row['nodes1']}, {row['nodes2']}", row["N"]]
+        cells += [f"{row[key]:.3f}" for key in ("wall", "startup", "meshing", "setup", "loop", "output")]
+        cells += [f"{row['overheadRatio']:.2f}", f"{row['contactIters']:.2f}"]
+        cells += [f"{100 * row[key]:.2f} %" if key in row else "reference" for key in ("errorToReference", "errorEstimate")]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    if target:
+        lines += ["", f"The paper's scene at h1 = 6/96, h2 = 6/128, N = 320 by FreeFem++ alone (start-up included, "
+                  f"best of 3): **{target['wall']:.2f} s**, {target['stepMs']:.1f} ms per step."]
+    lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
+              "the factorization):", "",
+              "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]
+    for row in solvers:
+        lines.append(f"| {row['matrix']} | {row['dofs']} | {row['solver']} | {row['factorSeconds'] * 1000:.1f} ms | "
+                     f"{row['solveSeconds'] * 1000:.2f} ms |")
+    (out / "README.md").write_text("\n".join(lines) + "\n")
+
+
+def plot(target: Path, rows: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(7, 5))
+    for name, marker in zip(("uniform, pdas", "uniform, bm", "graded, pdas"), "osd"):
+        points = [(row["errorEstimate"], row["wall"]) for row in rows if row["variant"] == name and "errorEstimate" in row]
+        if points:
+            errors, walls = zip(*points)
+            axis.loglog(errors, walls, marker + "-", label=name)
+    axis.invert_xaxis()
+    axis.set_xlabel("relative error ‖u(T) − u(T)‖_V / ‖u(T)‖_V (estimate)")
+    axis.set_ylabel("wall time of a run (s)")
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend()
+    figure.tight_layout()
+    figure.savefig(target, dpi=110)
+    plt.close(figure)

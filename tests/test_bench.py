@@ -1,0 +1,37 @@
+"""The benchmark command on two levels (speeds are its output, never asserted here): it writes
+its table, report and plot, and what it measures is consistent."""
+import csv
+
+import pytest
+
+from orchestrate.bench import bench
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    return out, bench(out, levels=2)
+
+
+def test_bench_writes_its_table_report_and_plot(quick):
+    out, _ = quick
+    with open(out / "bench.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [row["variant"] for row in rows] == ["uniform, pdas"] * 3 + ["uniform, bm"] * 2 + ["graded, pdas"] * 2
+    report = (out / "README.md").read_text()
+    assert "python -m orchestrate bench" in report and "CHOLMOD" in report and "MUMPS_seq" in report
+    assert (out / "workprecision.png").stat().st_size > 10000
+
+
+def test_measurements_are_consistent(quick):
+    _, rows = quick
+    for row in rows:
+        # a step does at least the back-substitutions it cannot avoid
+        assert row["overheadRatio"] > 1
+        assert row["wall"] > row["loop"] > 0 and row["startup"] > 0
+    uniform = [row for row in rows if row["variant"] == "uniform, pdas" and "errorToReference" in row]
+    bm = [row for row in rows if row["variant"] == "uniform, bm"]
+    assert uniform[0]["errorToReference"] > uniform[1]["errorToReference"] > 0
+    for a, b in zip(uniform, bm):  # same meshes, the two contact solvers agree
+        assert b["errorToReference"] == pytest.approx(a["errorToReference"], rel=1e-6)
+        assert b["contactIters"] > 10 * a["contactIters"]
