@@ -205,7 +205,7 @@ def plot(target: Path, rows: list[dict]) -> None:
             errors, walls = zip(*points)
             axis.loglog(errors, walls, marker + "-", label=name)
     axis.invert_xaxis()
-    axis.set_xlabel("relative error ‖u(T) − u(T)‖_V / ‖u(T)‖_V (estimate)")
+    axis.set_xlabel("relative error ‖u_h(T) − u(T)‖_V / ‖u(T)‖_V (estimate)")
     axis.set_ylabel("wall time of a run (s)")
     axis.grid(True, which="both", alpha=0.3)
     axis.legend()
