@@ -25,8 +25,10 @@ def parse_assignments(items: list[str], option: str) -> dict:
 def command_run(options) -> int:
     from orchestrate.runner import run
 
-    result = run(options.scene, options.out, parse_assignments(options.set, "--set"), force=options.force,
-                 progress=sys.stderr.isatty())
+    overrides = parse_assignments(options.set, "--set")
+    if options.allow_unstable:
+        overrides["solver.allow_unstable"] = True
+    result = run(options.scene, options.out, overrides, force=options.force, progress=sys.stderr.isatty())
     final = result.history
     print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
@@ -57,6 +59,14 @@ def command_study(options) -> int:
     return 0
 
 
+def command_stability(options) -> int:
+    from orchestrate.study import stability
+
+    stability(options.scene, options.out)
+    print((Path(options.out) / "README.md").read_text())
+    return 0
+
+
 def command_bench(options) -> int:
     from orchestrate.bench import bench
 
@@ -83,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
                      help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
     run.add_argument("--out", help="output folder (default results/<scene name>)")
     run.add_argument("--force", action="store_true", help="replace the output folder if it exists")
+    run.add_argument("--allow-unstable", action="store_true",
+                     help="run even when the time step exceeds the explicit stability bound k* (MODEL.md §7)")
     run.set_defaults(handler=command_run)
     sweep = commands.add_parser("sweep", help="run the cartesian product of overrides on dask.distributed")
     sweep.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
@@ -106,6 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     convergence.add_argument("--workers", type=int, default=2)
     convergence.add_argument("--out", default="results/convergence")
     convergence.set_defaults(handler=command_study)
+    stable = kinds.add_parser("stability", help="predicted against observed explicit time-step bound")
+    stable.add_argument("scene", nargs="?", default="scenes/paper.toml")
+    stable.add_argument("--out", default="results/stability")
+    stable.set_defaults(handler=command_stability)
     benchmark = commands.add_parser("bench", help="run time against error on this machine (results/bench)")
     benchmark.add_argument("--levels", type=int, default=5, help="measured levels per variant (finest: reference)")
     benchmark.add_argument("--out", default="results/bench")

@@ -206,6 +206,8 @@ class Solver(Strict):
     damage_max_iterations: int = Field(50, ge=1)
     bound_tol: float = Field(1e-10, ge=0, allow_inf_nan=False)
     linear_solver: Literal["CHOLMOD", "UMFPACK"] = "CHOLMOD"
+    allow_unstable: bool = False  # run even when k exceeds the explicit bound k* (MODEL.md §7)
+    divergence_factor: float = Field(10.0, gt=1, allow_inf_nan=False)
 
 
 class Output(Strict):
@@ -416,7 +418,8 @@ def solver_parameters(scene: Scene) -> dict[str, float | int | str]:
     values.update({"gammaNu": g.gammaNu, "gammaR": g.gammaR, "pTau": g.pTau, "L": g.L, "beta0": g.beta0,
                    "zetaMin": scene.damage.zetaMin, "contactSolver": s.contact, "contactTol": s.contact_tol,
                    "contactMaxIt": s.contact_max_iterations, "bmOmega": s.bm_omega, "damageTol": s.damage_tol,
-                   "damageMaxIt": s.damage_max_iterations, "boundTol": s.bound_tol, "linearSolver": s.linear_solver})
+                   "damageMaxIt": s.damage_max_iterations, "boundTol": s.bound_tol, "linearSolver": s.linear_solver,
+                   "allowUnstable": int(s.allow_unstable), "divergenceFactor": s.divergence_factor})
     times = scene.output.times
     values["outTimes"] = times if isinstance(times, str) else ",".join(expr.number_code(t) for t in times)
     values["outFields"] = ",".join(scene.output.fields) or "none"

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -210,4 +211,124 @@ def plot(target: Path, table: list[dict]) -> None:
     axes[0].legend(fontsize=8)
     figure.tight_layout()
     figure.savefig(target, dpi=110)
+    plt.close(figure)
+
+
+# --- stability --------------------------------------------------------------------------------
+
+STABILITY_LINE = re.compile(r"k\* = 2/rho = (\S+)")
+
+
+def predicted_bound(folder: Path) -> float:
+    """k* as the driver computed and printed it (edp/lib/stability.idp)."""
+    for line in (folder / "run.log").read_text().splitlines():
+        if line.startswith("stability:") and (match := STABILITY_LINE.search(line)):
+            return float(match.group(1))
+    raise RuntimeError(f"no stability line in {folder / 'run.log'}")
+
+
+def is_unstable(scene_path, overrides: dict, folder: Path) -> bool:
+    """Unstable: the run stops on divergence, or ‖u‖_V at T exceeds ten times its value at t = 1
+    (the loads are held after t = 1, so a stable run only creeps)."""
+    from orchestrate.freefem import SolverError
+    from orchestrate.runner import run
+
+    try:
+        result = run(scene_path, folder, overrides, force=True)
+    except SolverError as error:
+        if error.returncode == 5:
+            return True
+        raise
+    history = result.history
+    at_one = history["normV"][int(np.argmin(np.abs(history["t"] - 1.0)))]
+    return bool(history["normV"][-1] > 10 * at_one)
+
+
+def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int) -> int:
+    """Bisection on N between an unstable and a stable step count around `guess`."""
+    low, high = max(1, int(0.7 * guess)), int(1.4 * guess) + 1
+    while not is_unstable(scene_path, {**overrides, "time.N": low}, folder):
+        low = max(1, low // 2)
+    while is_unstable(scene_path, {**overrides, "time.N": high}, folder):
+        high *= 2
+    while high - low > 1:
+        middle = (low + high) // 2
+        if is_unstable(scene_path, {**overrides, "time.N": middle}, folder):
+            low = middle
+        else:
+            high = middle
+    return high
+
+
+def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0)) -> list[dict]:
+    """Predicted and observed explicit bounds k* for several E/η, with damage and with λ_u = 0."""
+    out = Path(out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    scene = Scene.load(scene_path)
+    eta = scene.body1.material.eta
+    held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)"}
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(scratch) / "run"
+        for E in young:
+            for damage in ("on", "off"):
+                overrides = {**held, "body1.mesh.n": 6, "body2.mesh.n": 8, "body1.material.E": E,
+                             "body2.material.E": E, "solver.allow_unstable": True, "output.times": "none",
+                             "output.images": False}
+                if damage == "off":
+                    overrides.update({"body1.damage.lambdaU": 0.0, "body2.damage.lambdaU": 0.0})
+                is_unstable(scene_path, {**overrides, "time.T": 1.0, "time.N": 1000}, folder)
+                k_star = predicted_bound(folder)
+                horizon = max(5.0, 200 * k_star)
+                overrides["time.T"] = horizon
+                steps = smallest_stable_steps(scene_path, overrides, folder, round(horizon / k_star))
+                stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
+                observed = 0.5 * (stable_k + unstable_k)
+                rows.append({"E": E, "eta": eta, "ratio": E / eta, "damage": damage, "T": horizon,
+                             "predicted": k_star, "stableK": stable_k, "unstableK": unstable_k, "observed": observed,
+                             "difference": observed / k_star - 1, "stableN": steps})
+    write_stability(out, rows, scene_path)
+    return rows
+
+
+def write_stability(out: Path, rows: list[dict], scene_path) -> None:
+    with open(out / "stability.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    lines = ["# Stability of the explicit scheme: predicted and observed bound on the time step", "",
+             "Reproduce (from the repository root):", "", "```sh",
+             f"python -m orchestrate study stability {Path(scene_path).as_posix()}", "```", "",
+             "The paper's scene on coarse meshes (body 1 with 6 elements per side, body 2 with 8) with E varied "
+             "in both bodies, loads held after t = 1 and a horizon T = max(5, 200 k*). Predicted: k* = 2/ρ, "
+             "ρ = max(bG/η, (2aG + bG)/(2μ + η)) (MODEL.md §7, edp/lib/stability.idp). Observed: the smallest "
+             "stable N by bisection (unstable: the run stops on divergence, or ‖u‖_V(T) > 10 ‖u‖_V(1)); the "
+             "threshold lies between T/N and T/(N − 1), whose midpoint is given. With damage on, ζ < 1 lowers "
+             "the effective ρ, so an unstable step can be masked; λ_u = 0 keeps ζ = 1.", "",
+             "| E/η | damage | predicted k* | observed k* (bracket) | difference | smallest stable N | T |",
+             "|---|---|---|---|---|---|---|"]
+    for row in rows:
+        lines.append(f"| {row['ratio']:.3g} | {'on' if row['damage'] == 'on' else 'λ_u = 0'} | {row['predicted']:.5g} | "
+                     f"{row['observed']:.5g} ({row['stableK']:.5g} – {row['unstableK']:.5g}) | "
+                     f"{100 * row['difference']:+.2f} % | {row['stableN']} | {row['T']:.4g} |")
+    worst = max(abs(row["difference"]) for row in rows if row["damage"] == "off")
+    lines += ["", f"Largest difference with λ_u = 0: {100 * worst:.2f} %."]
+    (out / "README.md").write_text("\n".join(lines) + "\n")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(6, 5))
+    for damage, marker in (("off", "o"), ("on", "s")):
+        points = [(row["predicted"], row["observed"]) for row in rows if row["damage"] == damage]
+        axis.loglog(*zip(*points), marker, label="λ_u = 0" if damage == "off" else "damage on", mfc="none")
+    limits = [min(row["predicted"] for row in rows) / 1.5, max(row["predicted"] for row in rows) * 1.5]
+    axis.loglog(limits, limits, "k:", lw=1, label="observed = predicted")
+    axis.set_xlabel("predicted k* = 2/ρ")
+    axis.set_ylabel("observed threshold k")
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend()
+    figure.tight_layout()
+    figure.savefig(out / "stability.png", dpi=110)
     plt.close(figure)

@@ -9,7 +9,7 @@ from orchestrate.freefem import REPO
 
 SCENE = REPO / "scenes" / "paper.toml"
 BASE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
-GRID = {"glue.gammaNu": [0.0, 1.0, 2.0, 1e7]}  # 1e7 debonds β below 0 in one step: an invariant breaks
+GRID = {"glue.gammaNu": [0.0, 1.0, 2.0, 1e7]}  # a glue of 1e7 is far too stiff for the explicit scheme
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,7 @@ def test_each_run_has_its_folder_and_one_failure_does_not_stop_the_others(first)
     status = {row["glue.gammaNu"]: row["status"] for row in rows}
     assert status == {0.0: "completed", 1.0: "completed", 2.0: "completed", 1e7: "failed"}
     failed = next(row for row in rows if row["status"] == "failed")
-    assert "beta min" in failed["error"] and "SolverError" in failed["error"]
+    assert "SolverError" in failed["error"] and "exit 5" in failed["error"]
     for row in rows:
         assert (out / row["folder"] / "history.csv").exists() == (row["status"] == "completed")
     assert (out / "glue.gammaNu=10000000.0.failed" / "run.log").exists()

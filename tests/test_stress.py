@@ -1,0 +1,89 @@
+"""Stress tests (coarse): every run ends with all invariants held and every loop converged, or,
+where the input is truly unstable, with the clear error of the core issue; the explicit-step
+bound k* of MODEL.md §7 is enforced."""
+import numpy as np
+import pytest
+
+from conftest import SCENES, gmsh_mesh, solve, solve_ok
+
+
+def assert_invariants(result):
+    h, tol = result.history, result.params["contactTol"]
+    for column, values in h.items():
+        assert np.all(np.isfinite(values)), column
+    for low, high in (("zetaMin1", "zetaMax1"), ("zetaMin2", "zetaMax2"), ("betaMin", "betaMax")):
+        assert np.all(h[low] >= -1e-10) and np.all(h[high] <= 1 + 1e-10), (low, high)
+    assert np.all(h["gapMax"] <= tol)
+    assert np.all(h["lambdaMin"] >= -10 * tol * result.params["omegaBM"])
+    scale = np.maximum(np.hypot(h["forceX1"], h["forceY1"]), 1e-300)
+    assert np.all(h["forceBalance"] <= 1e-10 * scale + 1e-14)
+    assert np.all(h["contactIters"] < result.params["contactMaxIt"])
+    assert len(h["t"]) == result.params["N"]
+
+
+@pytest.mark.parametrize("n1, n2", [(8, 8), (6, 18), (4, 32), (32, 4)], ids=["1:1", "1:3", "1:8", "8:1"])
+def test_mesh_size_ratios_between_the_bodies(tmp_path, n1, n2):
+    assert_invariants(solve_ok(tmp_path / "run", "-n1", n1, "-n2", n2))
+
+
+def test_loads_times_ten_and_damage_reaching_its_floor(tmp_path):
+    done, result = solve(tmp_path / "run", "-lambdaU1", 100, "-lambdaU2", 100, scene=SCENES / "heavy.idp")
+    assert done.returncode == 0, done.error_line
+    assert_invariants(result)
+    h = result.history
+    assert max(h["zetaBelowMin1"].max(), h["zetaBelowMin2"].max()) > 0, "damage should reach zeta_min somewhere"
+    assert "explicit damage source is unstable" in done.stdout  # the bound of MODEL.md §7 is reported
+
+
+@pytest.fixture(scope="module")
+def pulled_blocks(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("pull")
+    upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=5)
+    lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=7)
+    return folder, upper, lower
+
+
+def test_glue_that_debonds_the_whole_interface_before_the_end(pulled_blocks):
+    folder, upper, lower = pulled_blocks
+    result = solve_ok(folder / "debond", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1000, scene=SCENES / "pull.idp")
+    assert_invariants(result)
+    h = result.history
+    assert h["betaMax"][-2] < 0.01
+
+
+def test_glue_too_stiff_for_the_explicit_scheme_stops_with_the_reason(pulled_blocks):
+    folder, upper, lower = pulled_blocks
+    done, result = solve(folder / "stiff", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1e4, scene=SCENES / "pull.idp")
+    assert done.returncode == 5 and "the explicit scheme diverges" in done.error_line
+    assert len(result.history["t"]) < 40
+
+
+@pytest.mark.parametrize("omega", [0.1, 1, 10, 100])
+def test_bermudez_moreno_over_three_decades_of_its_penalty(tmp_path, omega):
+    result = solve_ok(tmp_path / "bm", "-contactSolver", "bm", "-bmOmega", omega)
+    assert_invariants(result)
+    reference = solve_ok(tmp_path / "pdas").history["normV"]
+    # Bermúdez–Moreno stops within contactTol = 1e-10 of the exact (active-set) solution
+    np.testing.assert_allclose(result.history["normV"], reference, rtol=0, atol=10 * result.params["contactTol"])
+
+
+def test_long_horizon(tmp_path):
+    result = solve_ok(tmp_path / "run", "-T", 10, "-N", 400)
+    assert_invariants(result)
+    assert result.history["zetaMin1"][-1] < 0.5  # ten times the load, ten times as long: real damage
+
+
+def test_a_step_above_the_explicit_bound_is_refused_with_the_smallest_stable_n(tmp_path):
+    # Paper data: rho = (E/(1+nu))/eta = 38.46, k* = 0.052 (MODEL.md §7)
+    done, _ = solve(tmp_path / "n19", "-N", 19)
+    assert done.returncode == 3
+    assert "k* = 2/rho = 0.052" in done.error_line and "N >= 20" in done.error_line and "-allowUnstable" in done.error_line
+    assert "smallest stable N = 20" in solve(tmp_path / "n20", "-N", 20)[0].stdout
+
+
+def test_an_allowed_unstable_run_is_stopped_when_it_diverges(tmp_path):
+    done, result = solve(tmp_path / "run", "-N", 2, "-T", 0.2, "-allowUnstable", 1)
+    assert "warning: k = 0.1 > k* = 0.052" in done.stdout
+    done, result = solve(tmp_path / "run", "-N", 8, "-T", 2, "-allowUnstable", 1, "-divergenceFactor", 2)
+    assert done.returncode == 5 and "normV grew from" in done.error_line and "diverges" in done.error_line
+    assert len(result.history["t"]) < 8  # the steps before stay on disk
