@@ -84,6 +84,24 @@ def command_render(options) -> int:
     return 0
 
 
+def positive(text: str) -> int:
+    """An integer ≥ 1 for --workers and --levels-like options."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not allowed: give an integer >= 1")
+    return value
+
+
+def at_least_two(text: str) -> int:
+    value = positive(text)
+    if value < 2:
+        raise argparse.ArgumentTypeError("a ladder needs at least 2 levels (the finest is the reference)")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m orchestrate", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -102,20 +120,20 @@ def main(argv: list[str] | None = None) -> int:
                        help="values of one scene key, e.g. --grid time.N=20,40 --grid glue.gammaNu=0,1")
     sweep.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
     sweep.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
-    sweep.add_argument("--workers", type=int, default=2, help="LocalCluster workers (default 2)")
+    sweep.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     sweep.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
     sweep.set_defaults(handler=command_sweep)
     study = commands.add_parser("study", help="studies of a scene: convergence")
     kinds = study.add_subparsers(dest="kind", required=True)
     convergence = kinds.add_parser("convergence", help="lock-step, time-only and space-only ladders, errors and rates")
     convergence.add_argument("scene", help="a scene whose meshes are nested under n -> 2n, e.g. scenes/paper.toml")
-    convergence.add_argument("--levels", type=int, default=6, help="levels per ladder, the finest is the reference")
-    convergence.add_argument("--n1", type=int, default=6, help="body 1 elements per side at the coarsest level")
-    convergence.add_argument("--n2", type=int, default=8, help="body 2 elements per side at the coarsest level")
-    convergence.add_argument("--N", type=int, default=20, help="time steps at the coarsest level")
+    convergence.add_argument("--levels", type=at_least_two, default=6, help="levels per ladder, the finest is the reference")
+    convergence.add_argument("--n1", type=positive, default=6, help="body 1 elements per side at the coarsest level")
+    convergence.add_argument("--n2", type=positive, default=8, help="body 2 elements per side at the coarsest level")
+    convergence.add_argument("--N", type=positive, default=20, help="time steps at the coarsest level")
     convergence.add_argument("--time-mesh-level", type=int, default=3, help="mesh level of the time-only ladder")
     convergence.add_argument("--space-steps-level", type=int, default=4, help="step level of the space-only ladder")
-    convergence.add_argument("--workers", type=int, default=2)
+    convergence.add_argument("--workers", type=positive, default=2)
     convergence.add_argument("--out", default="results/convergence")
     convergence.set_defaults(handler=command_study)
     stable = kinds.add_parser("stability", help="predicted against observed explicit time-step bound")
@@ -123,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     stable.add_argument("--out", default="results/stability")
     stable.set_defaults(handler=command_stability)
     benchmark = commands.add_parser("bench", help="run time against error on this machine (results/bench)")
-    benchmark.add_argument("--levels", type=int, default=5, help="measured levels per variant (finest: reference)")
+    benchmark.add_argument("--levels", type=at_least_two, default=5, help="measured levels per variant (finest: reference)")
     benchmark.add_argument("--out", default="results/bench")
     benchmark.set_defaults(handler=command_bench)
     render = commands.add_parser("render", help="images of a run folder")

@@ -6,6 +6,7 @@ fix both paths for any working folder; FF_VERBOSITY=0 keeps FreeFEM from echoing
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import shutil
 import signal
@@ -35,8 +36,20 @@ class SolverError(RuntimeError):
         self.returncode = returncode
         self.message = message
         self.log_tail = log_tail
-        meaning = EXIT_MEANING.get(returncode, "unexpected exit")
+        meaning = EXIT_MEANING.get(returncode, f"killed by signal {-returncode}" if returncode < 0 else "unexpected exit")
         super().__init__(f"FreeFem++ exit {returncode} ({meaning}): {message}")
+
+
+_LIBC = ctypes.CDLL(None, use_errno=True)
+PR_SET_PDEATHSIG = 1
+
+
+def _own_group_dying_with_parent() -> None:
+    """In the child, before exec: a process group of its own (so that it and whatever it starts
+    can be ended together), and SIGKILL when the process that started it dies (a sweep's worker
+    ended by an interruption leaves no FreeFem++ running). Only a system call: safe after fork."""
+    os.setsid()
+    _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
 def freefem_binary() -> str:
@@ -74,7 +87,8 @@ def run_script(script: Path | str, args: list[str] = (), cwd: Path | None = None
                timeout: float | None = None, defines: dict[str, str] | None = None) -> Completed:
     """Run a FreeFEM script to completion in its own process group; return code and output."""
     process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd or REPO, env=freefem_env(),
-                               text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+                               text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               preexec_fn=_own_group_dying_with_parent)
     try:
         stdout, stderr = process.communicate(timeout=timeout)
     except BaseException:
@@ -108,7 +122,7 @@ def run_logged(script: Path | str, args, log: Path, on_line=None, defines: dict[
     with open(log, "w") as sink:
         process = subprocess.Popen(freefem_command(script, args, defines), cwd=REPO, env=freefem_env(), text=True,
                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, bufsize=1,
-                                   start_new_session=True)
+                                   preexec_fn=_own_group_dying_with_parent, restore_signals=False)
         try:
             for line in process.stdout:
                 sink.write(line)

@@ -95,6 +95,11 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         shutil.rmtree(failed, ignore_errors=True)
         partial.rename(failed)
         raise
+    except FileNotFoundError:  # FreeFem++ itself missing: its own message says how to install it
+        raise
+    except OSError as error:  # a full disk, a folder that cannot be written: keep what exists
+        raise RunError(f"cannot write the run ({error.strerror}: {error.filename}); is the disk full? "
+                       f"The files written so far are in {partial}") from None
     summary["wallSeconds"] = round(time.perf_counter() - started, 3)
     (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     shutil.rmtree(failed, ignore_errors=True)
@@ -107,6 +112,21 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     else:
         partial.rename(out)
     return load_result(out)
+
+
+def require_complete(folder: Path, steps: int) -> None:
+    """FreeFEM's streams report no write error: a run that exited 0 must still have written a
+    history row per step, with every column, and every file its solution.pvd lists."""
+    lines = (folder / "history.csv").read_text().splitlines() if (folder / "history.csv").exists() else []
+    columns = lines[0].count(",") if lines else -1
+    complete = len(lines) == steps + 1 and all(line.count(",") == columns for line in lines)
+    if complete and (folder / "solution.pvd").exists():
+        listed = re.findall(r'file="([^"]+)"', (folder / "solution.pvd").read_text())
+        complete = all((folder / name).stat().st_size > 0 for name in listed if (folder / name).exists()) \
+            and all((folder / name).exists() for name in listed)
+    if not complete:
+        raise OSError(28, f"FreeFem++ finished but wrote {max(len(lines) - 1, 0)} of {steps} history rows or "
+                          f"an empty .vtu file", str(folder))
 
 
 def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = ()) -> dict:
@@ -148,6 +168,7 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
         tail = "\n".join(done.stdout.splitlines()[-15:])
         raise SolverError(done.returncode, done.error_line, tail)
 
+    require_complete(folder, scene.time.N)
     result = Result(folder)
     clock = time.perf_counter()
     if scene.output.images and result.outputs:

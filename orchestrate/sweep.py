@@ -127,24 +127,30 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
 
 
 def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
-    """Run the jobs of `plan` on dask.distributed; each row gets its status and figures."""
+    """Run the jobs of `plan` on dask.distributed; each row gets its status and figures.
+    An interruption (SIGINT, SIGTERM) closes the cluster: its workers end, and their FreeFem++
+    children with them (freefem.py); the same sweep started again runs what did not finish."""
     if not jobs:
         return
     from dask.distributed import as_completed
 
+    from orchestrate.runner import sigterm_as_interrupt
+
     client = make_client(workers, scheduler)
     try:
-        futures = {client.submit(run_one, data, folder, digest, pure=False): row for row, data, folder, digest in jobs}
-        bar = None
-        if progress:
-            from tqdm import tqdm
-            bar = tqdm(total=len(futures), unit="run", desc="runs")
-        for future in as_completed(futures):
-            futures[future].update(future.result())
+        with sigterm_as_interrupt():
+            futures = {client.submit(run_one, data, folder, digest, pure=False): row
+                       for row, data, folder, digest in jobs}
+            bar = None
+            if progress:
+                from tqdm import tqdm
+                bar = tqdm(total=len(futures), unit="run", desc="runs")
+            for future in as_completed(futures):
+                futures[future].update(future.result())
+                if bar is not None:
+                    bar.update(1)
             if bar is not None:
-                bar.update(1)
-        if bar is not None:
-            bar.close()
+                bar.close()
     finally:
         cluster = client.cluster
         client.close()
