@@ -10,13 +10,14 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import subprocess
+import sys
 import threading
 from pathlib import Path
 
 from orchestrate.freefem import REPO
 
 CACHE = REPO / "results" / ".cache" / "meshes"
-_GMSH = threading.Lock()  # gmsh's API is a process-wide singleton, not thread-safe
 
 
 class MeshError(RuntimeError):
@@ -45,21 +46,32 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
         return target
     cache.mkdir(parents=True, exist_ok=True)
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
-    with _GMSH:
-        generate(source, numbers, refine, partial)
+    generate(source, numbers, refine, partial)
     os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     return target
 
 
 def generate(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
+    """Mesh in a fresh Python process: gmsh keeps every -setnumber value for the life of the
+    process (initialize/finalize do not reset them), so meshing in-process would give a later
+    body the constants of an earlier one that its own scene leaves at their defaults."""
+    command = [sys.executable, "-m", "orchestrate.mesh", str(source), json.dumps(numbers), str(refine), str(target)]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        target.unlink(missing_ok=True)
+        reason = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit code {done.returncode}"
+        raise MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+
+
+def generate_here(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
     import gmsh
 
-    # interruptible=False lets gmsh start outside the main thread (dask workers). DefineConstant
-    # values take effect only as -setnumber arguments here: gmsh.parser.setNumber is ignored.
+    # DefineConstant values take effect only as -setnumber arguments: gmsh.parser.setNumber is
+    # ignored for them.
     arguments = ["gmsh"]
     for name, value in numbers.items():
         arguments += ["-setnumber", name, repr(float(value))]
-    gmsh.initialize(arguments, interruptible=False)
+    gmsh.initialize(arguments)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.logger.start()
@@ -72,9 +84,15 @@ def generate(source: Path, numbers: dict[str, float], refine: int, target: Path)
             gmsh.model.mesh.refine()
         gmsh.write(str(target))
     except Exception as error:
-        log = "\n".join(line for line in gmsh.logger.get() if "Error" in line) or str(error)
-        target.unlink(missing_ok=True)
-        raise MeshError(f"gmsh could not mesh {source.name} with {numbers}: {log}") from None
+        log = "; ".join(line for line in gmsh.logger.get() if "Error" in line) or str(error)
+        raise MeshError(log) from None
     finally:
         gmsh.logger.stop()
         gmsh.finalize()
+
+
+if __name__ == "__main__":
+    try:
+        generate_here(Path(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), Path(sys.argv[4]))
+    except MeshError as error:
+        sys.exit(str(error))

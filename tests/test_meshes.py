@@ -22,3 +22,16 @@ def test_default_traces_do_not_match():
         mesh = meshio.read(REPO / "meshes" / f"paper_body{body}-n{n}.msh")
         counts.append(np.count_nonzero(np.abs(mesh.points[:, 1]) < 1e-12))
     assert counts == [25, 33]
+
+
+def test_a_mesh_does_not_inherit_the_constants_of_an_earlier_one(tmp_path):
+    """gmsh keeps -setnumber values for the life of a process: a tilted box meshed after a
+    rectangle given y0 = −1 must still start at its own default y0 = 0.6 (meshes/tilted_box.geo)."""
+    from pathlib import Path
+
+    from orchestrate.mesh import body_mesh
+
+    body_mesh(Path(REPO / "meshes/rectangle.geo"), {"n": 4, "y0": -1.0, "y1": 0.0}, cache=tmp_path)
+    box = meshio.read(body_mesh(Path(REPO / "meshes/tilted_box.geo"), {"n": 6, "side": 1.0}, cache=tmp_path))
+    assert box.points[:, 1].min() == pytest.approx(0.6, abs=1e-12)
+    assert box.points[:, 1].max() == pytest.approx(2.0, abs=1e-12)
