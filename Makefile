@@ -9,7 +9,7 @@ PYTHON := $(VENV)/bin/python
 APT_PACKAGES := freefem++ libfreefem++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-packages paper test
+.PHONY: setup system-packages paper test gallery
 
 setup: system-packages $(VENV)/.installed
 
@@ -32,6 +32,9 @@ $(VENV)/.installed: pyproject.toml
 
 paper: setup
 	$(PYTHON) -m orchestrate run scenes/paper.toml --out results/paper --force
+
+gallery: setup
+	$(PYTHON) -m orchestrate gallery
 
 test: setup
 	$(PYTHON) -m pytest -q tests

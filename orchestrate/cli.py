@@ -75,6 +75,23 @@ def command_bench(options) -> int:
     return 0
 
 
+GALLERY = ("paper", "peel", "indentation", "shear", "tilted_patch")
+
+
+def command_gallery(options) -> int:
+    """Every gallery scene at its own resolution into results/gallery/<name> (docs/gallery.md)."""
+    from orchestrate.freefem import REPO
+    from orchestrate.runner import run
+
+    unknown = [name for name in options.names if name not in GALLERY]
+    if unknown:
+        raise SceneError(f"no gallery scene {', '.join(unknown)} (the gallery: {', '.join(GALLERY)})")
+    for name in options.names or GALLERY:
+        result = run(REPO / "scenes" / f"{name}.toml", Path(options.out) / name, force=True, progress=sys.stderr.isatty())
+        print(f"{name}: {result.folder}")
+    return 0
+
+
 def command_render(options) -> int:
     from orchestrate.render import render_all
 
@@ -144,6 +161,10 @@ def main(argv: list[str] | None = None) -> int:
     benchmark.add_argument("--levels", type=at_least_two, default=5, help="measured levels per variant (finest: reference)")
     benchmark.add_argument("--out", default="results/bench")
     benchmark.set_defaults(handler=command_bench)
+    gallery = commands.add_parser("gallery", help="run the gallery scenes into results/gallery")
+    gallery.add_argument("names", nargs="*", metavar="NAME", help=f"some of {', '.join(GALLERY)} (default: all)")
+    gallery.add_argument("--out", default="results/gallery")
+    gallery.set_defaults(handler=command_gallery)
     render = commands.add_parser("render", help="images of a run folder")
     render.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     render.add_argument("--out", help="where to write the images (default: the run folder)")

@@ -44,6 +44,17 @@ def deformed_bodies(result: Result, time: float | None = None) -> tuple[list[pv.
     return [body.warp_by_vector("u", factor=factor) for body in bodies], factor
 
 
+def colour_range(values: np.ndarray, floor: float = 1e-6) -> tuple[float, float]:
+    """The field's min–max, widened to at least `floor` times its magnitude: a field uniform to
+    round-off (the patch test's) then shows as one colour, not as its magnified rounding noise."""
+    low, high = float(values.min()), float(values.max())
+    width = floor * (max(abs(low), abs(high)) or 1.0)
+    if high - low >= width:
+        return low, high
+    middle = 0.5 * (low + high)
+    return middle - 0.5 * width, middle + 0.5 * width
+
+
 def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str, tuple[float, float]]:
     """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies.
     Returns the colour range each colour bar shows, read back from the rendered scene."""
@@ -53,10 +64,7 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
     plotter.set_background("white")
     for column, field in enumerate(("vonMises", "zeta")):
         plotter.subplot(0, column)
-        values = np.concatenate([body[field] for body in bodies])
-        limits = (float(values.min()), float(values.max()))
-        if limits[0] == limits[1]:
-            limits = (limits[0] - 0.5, limits[1] + 0.5)
+        limits = colour_range(np.concatenate([body[field] for body in bodies]))
         bar = dict(title=FIELD_TITLES[field], color="black", vertical=False, n_labels=5, fmt="%.4g",
                    position_x=0.12, position_y=0.03, width=0.76, height=0.06, title_font_size=16,
                    label_font_size=14)
@@ -117,6 +125,32 @@ def plot_history(result: Result, target: Path) -> Path:
     return target
 
 
+def plot_bonding_evolution(result: Result, target: Path) -> Path:
+    """β over the position along Γ_C and the time, from every contact-line output."""
+    import meshio
+
+    times, rows, edges = [], [], None
+    for time, files in result.outputs:
+        if "contact" in files:
+            line = meshio.read(files["contact"])
+            edges = np.linalg.norm(line.points - line.points[0], axis=1)
+            rows.append(line.cell_data["beta"][0])
+            times.append(time)
+    times = np.array(times)
+    time_edges = np.concatenate([[times[0] - (times[1] - times[0]) / 2], (times[1:] + times[:-1]) / 2,
+                                 [times[-1] + (times[-1] - times[-2]) / 2]])
+    figure, axis = plt.subplots(figsize=(7, 4.2))
+    image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=0, vmax=1, shading="flat")
+    figure.colorbar(image, ax=axis, label="bonding β")
+    axis.set_xlabel("position along Γ_C (m)")
+    axis.set_ylabel("t (s)")
+    axis.set_title("Bonding β along Γ_C over time")
+    figure.tight_layout()
+    figure.savefig(target, dpi=110)
+    plt.close(figure)
+    return target
+
+
 def render_all(result: Result, folder: Path) -> list[Path]:
     """Every image the run's files allow: fields (body files), contact line, history."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -127,4 +161,6 @@ def render_all(result: Result, folder: Path) -> list[Path]:
         images.append(folder / "fields.png")
     if "contact" in parts:
         images.append(plot_contact_line(result, folder / "contact_line.png"))
+    if sum("contact" in files for _, files in result.outputs) >= 3:
+        images.append(plot_bonding_evolution(result, folder / "beta_xt.png"))
     return images + [plot_history(result, folder / "history.png")]

@@ -33,3 +33,14 @@ def test_colour_bars_span_the_data(coarse, tmp_path):
     assert shown["vonMises"] == pytest.approx((von_mises.min(), von_mises.max()), rel=1e-12, abs=1e-300)
     assert shown["zeta"] == pytest.approx((zeta.min(), zeta.max()), rel=1e-12)
     assert von_mises.max() > 0 and zeta.min() < 1
+
+
+def test_a_field_uniform_to_round_off_is_shown_as_one_colour():
+    from orchestrate.render import colour_range
+
+    noisy = 15.085 + np.array([0.0, 3e-14, -2e-14])
+    low, high = colour_range(noisy)
+    assert low < noisy.min() and high > noisy.max() and high - low == pytest.approx(15.085e-6, rel=1e-9)
+    assert colour_range(np.zeros(3)) == pytest.approx((-5e-7, 5e-7))
+    spread = np.array([0.2, 0.9])
+    assert colour_range(spread) == (0.2, 0.9)

@@ -87,3 +87,33 @@ def test_an_allowed_unstable_run_is_stopped_when_it_diverges(tmp_path):
     done, result = solve(tmp_path / "run", "-N", 8, "-T", 2, "-allowUnstable", 1, "-divergenceFactor", 2)
     assert done.returncode == 5 and "normV grew from" in done.error_line and "diverges" in done.error_line
     assert len(result.history["t"]) < 8  # the steps before stay on disk
+
+
+# Two soft blocks (E = 10, so the elastic bound k* = 5.2 is far) bonded by a stiff tangential glue
+# (p_τ = 1000, γ_ν = 0: the glue is a linear spring on the slip) and sheared open, loads held after
+# t = 1. The bound 2/ρ_τ comes from the operator (power iteration, edp/lib/stability.idp); the
+# threshold observed here comes from the dynamics of the run.
+SLIDING = {"body1.mesh.n": 8, "body2.mesh.n": 11, "glue.gammaNu": 0.0, "glue.pTau": 1000.0,
+           "body1.material.E": 10.0, "body2.material.E": 10.0, "body1.boundary.0.value": "0.2*min(t, 1)",
+           "body1.boundary.1.value": "0.2*min(t, 1)", "time.T": 5.0, "output.times": "none", "output.images": False}
+
+
+def test_the_tangential_glue_bound_is_sharp(tmp_path):
+    import re
+
+    from orchestrate import SolverError, run
+    from orchestrate.freefem import REPO
+
+    shear = REPO / "scenes" / "shear.toml"
+    with pytest.raises(SolverError) as refused:
+        run(shear, tmp_path / "refused", {**SLIDING, "time.N": 200})
+    assert refused.value.returncode == 3 and "tangential glue bound" in refused.value.message
+    smallest = int(re.search(r"N >= (\d+)", refused.value.message).group(1))
+    assert 100 < smallest < 5000  # p_τ dominates: far above the elastic N >= 1
+    below = {**SLIDING, "time.N": int(0.99 * smallest), "solver.allow_unstable": True}
+    with pytest.raises(SolverError) as diverged:
+        run(shear, tmp_path / "below", below)
+    assert diverged.value.returncode == 5 and "diverges" in diverged.value.message
+    stable = run(shear, tmp_path / "above", {**SLIDING, "time.N": int(1.01 * smallest) + 1})
+    normV = stable.history["normV"]
+    assert np.all(np.isfinite(normV)) and normV[-1] < 10 * normV[np.argmin(np.abs(stable.history["t"] - 1))]
