@@ -70,7 +70,8 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
                    label_font_size=14)
         for index, body in enumerate(bodies):
             plotter.add_mesh(body, scalars=field, cmap="viridis" if field == "vonMises" else "magma",
-                             clim=limits, show_edges=False, scalar_bar_args=bar, show_scalar_bar=index == 0)
+                             clim=limits, show_edges=False, scalar_bar_args=bar, show_scalar_bar=index == 0,
+                             lighting=False)  # flat colours, as the colour bar shows them
         plotter.add_text(f"{FIELD_TITLES[field].split(' (')[0]} at t = {time:g}, "
                          f"displacements magnified x{factor:g}", position="upper_edge", font_size=10, color="black")
         plotter.view_xy()
@@ -109,7 +110,8 @@ def plot_history(result: Result, target: Path) -> Path:
     h = result.history
     panels = [("‖u‖_V", ["normV"]), ("max von Mises (N/m²)", ["vmMax1", "vmMax2"]),
               ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
-              ("contact force (N/m)", ["contactForce"]), ("closed length (m)", ["contactLength"])]
+              ("forces on body 1 across Γ_C (N/m)", ["contactForce", "forceX1", "forceY1"]),
+              ("closed length (m)", ["contactLength"])]
     figure, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
     for axis, (title, columns) in zip(axes.flat, panels):
         for column in columns:

@@ -1,0 +1,126 @@
+"""The gallery scenes (scenes/, docs/gallery.md) at a coarse level, each against what its
+physics says must happen. The gallery resolution runs through `python -m orchestrate gallery`."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from orchestrate.cli import GALLERY
+from orchestrate.freefem import REPO
+from orchestrate.results import Result, cell_field, load_result
+from orchestrate.runner import run
+
+SCENES = REPO / "scenes"
+
+
+def coarse(name: str, folder, **overrides) -> Result:
+    """A gallery scene with its meshes coarsened, no images; run() raises if the solver failed
+    (non-convergence, NaN, ζ or β outside [0, 1], g_h above tolerance)."""
+    result = run(SCENES / f"{name}.toml", folder / name, {"output.images": False, **overrides})
+    check_interface(result)
+    return result
+
+
+def check_interface(result: Result) -> None:
+    """What every run must satisfy: the contact and glue forces on the two bodies cancel, and
+    no node is open beyond the tolerance where contact holds."""
+    history = result.history
+    scale = max(np.abs(history["forceX1"]).max(), np.abs(history["forceY1"]).max(), 1.0)
+    assert history["forceBalance"].max() <= 1e-10 * scale, "the interface forces on the two bodies must cancel"
+    assert history["gapMax"].max() <= result.params["contactTol"]
+
+
+def segment_midpoints(line) -> np.ndarray:
+    ends = line.cells_dict["line"]
+    return 0.5 * (line.points[ends[:, 0], 0] + line.points[ends[:, 1], 0])
+
+
+def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
+    """u = −0.01 t (x, y): ε(u) = −0.01 t I, isotropic, so a frictionless interface of any
+    slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (MODEL.md §2), ζ uniform:
+    σⁿ = −(2μ + η)·0.01 − ζⁿ E/(1 − ν)·0.01 tₙ in every triangle; the contact pressure balances
+    step n's equation, with ζⁿ⁻¹ and uⁿ⁻¹ in the explicit term (MODEL.md §6)."""
+    result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final"})
+    p, h = result.params, result.history
+    E, nu, mu, eta, T, N = p["E1"], p["nu1"], p["mu1"], p["eta1"], p["T"], p["N"]
+    k = T / N
+    zeta = h["zetaMin1"]
+    assert np.allclose([h["zetaMax1"], h["zetaMin2"], h["zetaMax2"]], zeta, rtol=0, atol=1e-14)
+    viscous, elastic = (2 * mu + eta) * 0.01, E / (1 - nu) * 0.01
+    stress = viscous + elastic * zeta[-1] * T
+    pressure = viscous + elastic * zeta[-2] * (T - k)
+    for body in ("body1", "body2"):
+        mesh = result.fields(body)
+        assert np.allclose(cell_field(mesh, "vonMises"), stress, rtol=1e-12)
+        assert np.allclose(cell_field(mesh, "sigma12"), 0, atol=1e-12 * stress)
+        # the .vtu points are Float32 (docs/freefem-facts.md): u is exact to their rounding
+        assert np.allclose(mesh.point_data["u"][:, :2], -0.01 * T * mesh.points[:, :2], rtol=0, atol=1e-7 * 0.02 * 2)
+    line = result.fields("contact")
+    assert np.allclose(line.point_data["pressure"], pressure, rtol=1e-12)
+    assert np.abs(line.point_data["gap"]).max() <= 1e-14
+
+
+def test_the_peel_front_travels_from_the_lifted_end(tmp_path):
+    """No rebonding (γ_r = 0), so β only falls (β update of MODEL.md §6); the lifted right end
+    debonds first and the front (β = ½) moves left while the far end stays bonded."""
+    times = [0.5, 1.0, 1.5, 2.0]
+    result = coarse("peel", tmp_path, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})
+    assert np.all(np.diff(result.history["betaMean"]) <= 0)
+    fronts = []
+    for time in times:
+        line = result.fields("contact", time)
+        x, beta = segment_midpoints(line), line.cell_data["beta"][0]
+        order = np.argsort(x)
+        x, beta = x[order], beta[order]
+        assert beta[:10].min() > 0.99, f"the far end must stay bonded at t = {time}"
+        fronts.append(x[beta < 0.5].min())
+        if time >= 1.0:
+            assert beta[-1] < 1e-3, f"the lifted end must be debonded at t = {time}"
+    assert np.all(np.diff(fronts) < 0), f"the front must move towards the far end: {fronts}"
+    assert fronts[-1] < 6 - 1.5, "by T the front has travelled more than a quarter of the strip"
+
+
+def test_indentation_damages_the_base_under_the_punch_edges(tmp_path):
+    """The punch does not damage (λ_D = λ_u = 0, ζ⁰ = 1): ζ ≡ 1 there. The stress of a flat
+    punch is singular at its edges x = ±0.5 on Γ_C, so the base's damage is lowest there."""
+    result = coarse("indentation", tmp_path, **{"body1.mesh.n": 8, "body2.mesh.n": 12})
+    h = result.history
+    assert h["zetaMin1"].min() == 1.0 and h["zetaMax1"].max() == 1.0
+    base = result.fields("body2")
+    zeta = base.point_data["zeta"]
+    weakest = base.points[np.argmin(zeta), :2]
+    assert abs(abs(weakest[0]) - 0.5) < 1e-9 and abs(weakest[1]) < 1e-9, f"damage peaks at {weakest}"
+    assert zeta.min() < 0.9
+    # the punch presses down (the contact force on it points up) and the load grows with t
+    assert np.all(np.diff(h["contactForce"]) > 0) and h["forceY1"][-1] > 0
+
+
+def test_the_shear_load_is_held_by_the_glue_until_it_debonds(tmp_path):
+    """Frictionless contact: only the tangential glue p_τ β R*(slip) carries the shear, and the
+    opening (γ_ν term) debonds it, so the shear force rises, peaks, and falls with β."""
+    result = coarse("shear", tmp_path, **{"body1.mesh.n": 8, "body2.mesh.n": 11})
+    h = result.history
+    shear = np.abs(h["forceX1"])
+    peak = int(np.argmax(shear))
+    assert 0 < peak < len(shear) - 1
+    assert shear[-1] < 0.1 * shear[peak]
+    assert h["betaMean"][-1] < 0.05 and np.all(np.diff(h["betaMean"]) <= 0)
+    assert h["contactLength"].max() == 0, "the opening load never closes the interface"
+
+
+def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
+    """`python -m orchestrate gallery` as a user runs it: every scene of docs/gallery.md, its
+    images and its invariants."""
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "gallery", "--out", str(tmp_path)],
+                          cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    for name in GALLERY:
+        result = load_result(tmp_path / name)
+        check_interface(result)
+        assert result.history["t"][-1] == pytest.approx(result.params["T"])
+        for image in ("fields.png", "contact_line.png", "history.png"):
+            assert (tmp_path / name / image).stat().st_size > 10_000
+    assert (tmp_path / "peel" / "beta_xt.png").exists()
