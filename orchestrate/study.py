@@ -216,15 +216,34 @@ def plot(target: Path, table: list[dict]) -> None:
 
 # --- stability --------------------------------------------------------------------------------
 
-STABILITY_LINE = re.compile(r"k\* = 2/rho = (\S+)")
+ELASTIC_BOUND = re.compile(r"k\* = 2/rho = ([0-9.eE+-]+)")
+GLUE_BOUND = re.compile(r"2/rho_tau = ([0-9.eE+-]+)")
+GLUE_SCENE = Path(__file__).resolve().parent.parent / "scenes" / "shear.toml"
+# The shear scene with γ_ν = 0 (the glue never debonds, so p_τ β R*(slip) is a linear spring),
+# soft bodies (E = 10: the elastic bound is far away) and the top's displacement held after t = 1.
+GLUE_ALONE = {"body1.mesh.n": 8, "body2.mesh.n": 11, "glue.gammaNu": 0.0, "body1.material.E": 10.0,
+              "body2.material.E": 10.0, "body1.boundary.0.value": "0.2*min(t, 1)",
+              "body1.boundary.1.value": "0.2*min(t, 1)"}
 
 
-def predicted_bound(folder: Path) -> float:
-    """k* as the driver computed and printed it (edp/lib/stability.idp)."""
-    for line in (folder / "run.log").read_text().splitlines():
-        if line.startswith("stability:") and (match := STABILITY_LINE.search(line)):
+def predicted_bound(folder: Path, pattern: re.Pattern = ELASTIC_BOUND) -> float:
+    """A bound as the driver computed and printed it (edp/lib/stability.idp) in the last run into
+    `folder`, which may have stopped (runner.run leaves `<folder>.failed` then, and removes it
+    when a run succeeds)."""
+    failed = folder.with_name(folder.name + ".failed")
+    log = (failed if failed.exists() else folder) / "run.log"
+    for line in log.read_text().splitlines():
+        if line.startswith("stability:") and (match := pattern.search(line)):
             return float(match.group(1))
-    raise RuntimeError(f"no stability line in {folder / 'run.log'}")
+    raise RuntimeError(f"no stability line matching {pattern.pattern} in {log}")
+
+
+def has_glue_line(folder: Path) -> bool:
+    try:
+        predicted_bound(folder, GLUE_BOUND)
+    except RuntimeError:
+        return False
+    return True
 
 
 def is_unstable(scene_path, overrides: dict, folder: Path) -> bool:
@@ -260,12 +279,29 @@ def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int)
     return high
 
 
-def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0)) -> list[dict]:
-    """Predicted and observed explicit bounds k* for several E/η, with damage and with λ_u = 0."""
+def threshold(scene_path, overrides: dict, folder: Path, pattern: re.Pattern) -> dict:
+    """The predicted bound (from a short run) against the observed one (bisection on N over a
+    horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
+    probe = {**overrides, "solver.allow_unstable": True, "output.times": "none", "output.images": False}
+    is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder)
+    k_star = predicted_bound(folder, pattern)
+    glue_bound = predicted_bound(folder, GLUE_BOUND) if pattern is not GLUE_BOUND and has_glue_line(folder) else None
+    horizon = max(5.0, 200 * k_star)
+    steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star))
+    stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
+    observed = 0.5 * (stable_k + unstable_k)
+    return {"T": horizon, "predicted": k_star, "glueBound": glue_bound, "stableK": stable_k, "unstableK": unstable_k, "observed": observed,
+            "difference": observed / k_star - 1, "stableN": steps}
+
+
+def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0),
+              glue=(100.0, 1000.0, 10000.0)) -> list[dict]:
+    """Predicted and observed explicit bounds: the elastic k* for several E/η, with damage and
+    with λ_u = 0, on `scene_path`; the tangential glue bound 2/ρ_τ for several p_τ on the shear
+    scene set up so that the glue alone sets the bound (GLUE_ALONE)."""
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    scene = Scene.load(scene_path)
-    eta = scene.body1.material.eta
+    eta = Scene.load(scene_path).body1.material.eta
     held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)"}
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
@@ -273,22 +309,36 @@ def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000
         for E in young:
             for damage in ("on", "off"):
                 overrides = {**held, "body1.mesh.n": 6, "body2.mesh.n": 8, "body1.material.E": E,
-                             "body2.material.E": E, "solver.allow_unstable": True, "output.times": "none",
-                             "output.images": False}
+                             "body2.material.E": E}
                 if damage == "off":
                     overrides.update({"body1.damage.lambdaU": 0.0, "body2.damage.lambdaU": 0.0})
-                is_unstable(scene_path, {**overrides, "time.T": 1.0, "time.N": 1000}, folder)
-                k_star = predicted_bound(folder)
-                horizon = max(5.0, 200 * k_star)
-                overrides["time.T"] = horizon
-                steps = smallest_stable_steps(scene_path, overrides, folder, round(horizon / k_star))
-                stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
-                observed = 0.5 * (stable_k + unstable_k)
-                rows.append({"E": E, "eta": eta, "ratio": E / eta, "damage": damage, "T": horizon,
-                             "predicted": k_star, "stableK": stable_k, "unstableK": unstable_k, "observed": observed,
-                             "difference": observed / k_star - 1, "stableN": steps})
+                rows.append({"term": "elastic", "parameter": E / eta, "damage": damage,
+                             **threshold(scene_path, overrides, folder, ELASTIC_BOUND)})
+        for p_tau in glue:
+            rows.append({"term": "tangential glue", "parameter": p_tau, "damage": "on",
+                         **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau}, folder, GLUE_BOUND)})
     write_stability(out, rows, scene_path)
     return rows
+
+
+def bracket(row: dict) -> str:
+    """The columns a stability table shares: predicted | observed (bracket) | difference | N | T."""
+    return (f"{row['predicted']:.5g} | {row['observed']:.5g} ({row['stableK']:.5g} – {row['unstableK']:.5g}) | "
+            f"{100 * row['difference']:+.2f} % | {row['stableN']} | {row['T']:.4g}")
+
+
+def glue_columns(row: dict) -> str:
+    """2/ρ_τ and the certain bound 2/(ρ + ρ_τ), for an elastic row run with tangential glue."""
+    if not row["glueBound"]:
+        return "– | –"
+    certain = 2 / (2 / row["predicted"] + 2 / row["glueBound"])
+    return f"{row['glueBound']:.4g} | {certain:.5g}"
+
+
+def within_theory(row: dict) -> bool:
+    """Does the observed bracket [stableK, unstableK] meet [2/(ρ + ρ_τ), min(2/ρ, 2/ρ_τ)]?"""
+    certain = 2 / (2 / row["predicted"] + 2 / row["glueBound"])
+    return row["stableK"] <= min(row["predicted"], row["glueBound"]) and row["unstableK"] >= certain
 
 
 def write_stability(out: Path, rows: list[dict], scene_path) -> None:
@@ -296,23 +346,43 @@ def write_stability(out: Path, rows: list[dict], scene_path) -> None:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+    elastic = [row for row in rows if row["term"] == "elastic"]
+    glue = [row for row in rows if row["term"] == "tangential glue"]
     lines = ["# Stability of the explicit scheme: predicted and observed bound on the time step", "",
              "Reproduce (from the repository root):", "", "```sh",
              f"python -m orchestrate study stability {Path(scene_path).as_posix()}", "```", "",
+             "Observed: the smallest stable N by bisection, loads held after t = 1, horizon T = max(5, 200 k*) "
+             "(unstable: the run stops on divergence, or ‖u‖_V(T) > 10 ‖u‖_V(1)); the threshold lies between "
+             "T/N and T/(N − 1), whose midpoint is given.", "",
+             "## Elastic term", "",
              "The paper's scene on coarse meshes (body 1 with 6 elements per side, body 2 with 8) with E varied "
-             "in both bodies, loads held after t = 1 and a horizon T = max(5, 200 k*). Predicted: k* = 2/ρ, "
-             "ρ = max(bG/η, (2aG + bG)/(2μ + η)) (MODEL.md §7, edp/lib/stability.idp). Observed: the smallest "
-             "stable N by bisection (unstable: the run stops on divergence, or ‖u‖_V(T) > 10 ‖u‖_V(1)); the "
-             "threshold lies between T/N and T/(N − 1), whose midpoint is given. With damage on, ζ < 1 lowers "
-             "the effective ρ, so an unstable step can be masked; λ_u = 0 keeps ζ = 1.", "",
-             "| E/η | damage | predicted k* | observed k* (bracket) | difference | smallest stable N | T |",
-             "|---|---|---|---|---|---|---|"]
-    for row in rows:
-        lines.append(f"| {row['ratio']:.3g} | {'on' if row['damage'] == 'on' else 'λ_u = 0'} | {row['predicted']:.5g} | "
-                     f"{row['observed']:.5g} ({row['stableK']:.5g} – {row['unstableK']:.5g}) | "
-                     f"{100 * row['difference']:+.2f} % | {row['stableN']} | {row['T']:.4g} |")
-    worst = max(abs(row["difference"]) for row in rows if row["damage"] == "off")
+             "in both bodies. Predicted: k* = 2/ρ, ρ = max(bG/η, (2aG + bG)/(2μ + η)) (MODEL.md §7, "
+             "edp/lib/stability.idp). With damage on, ζ < 1 lowers the effective ρ, so an unstable step can be "
+             "masked; λ_u = 0 keeps ζ = 1. The scene's tangential glue (p_τ = 1) adds its own bound 2/ρ_τ; "
+             "the true threshold lies between 2/(ρ + ρ_τ) and min(2/ρ, 2/ρ_τ) (docs/model-choices.md, "
+             "\"Explicit glue\"), which matters where ρ_τ is not small against ρ (soft bodies).", "",
+             "| E/η | damage | predicted k* | observed k* (bracket) | difference | smallest stable N | T | 2/ρ_τ | 2/(ρ + ρ_τ) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {row['parameter']:.3g} | {'on' if row['damage'] == 'on' else 'λ_u = 0'} | {bracket(row)} | "
+              f"{glue_columns(row)} |" for row in elastic]
+    undamaged = [row for row in elastic if row["damage"] == "off"]
+    worst = max(abs(row["difference"]) for row in undamaged)
     lines += ["", f"Largest difference with λ_u = 0: {100 * worst:.2f} %."]
+    with_glue = [row for row in undamaged if row["glueBound"]]
+    if with_glue:
+        inside = sum(within_theory(row) for row in with_glue)
+        lines += [f"With λ_u = 0, {inside} of {len(with_glue)} observed brackets meet the theory's interval "
+                  "[2/(ρ + ρ_τ), min(2/ρ, 2/ρ_τ)]."]
+    if glue:
+        lines += ["", "## Tangential glue term", "",
+                  "scenes/shear.toml (n = 8/11) with γ_ν = 0 (the glue never debonds), E = 10 in both bodies (the "
+                  "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
+                  "2/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration (docs/model-choices.md, \"Explicit glue\").", "",
+                  "| p_τ | predicted 2/ρ_τ | observed (bracket) | difference | smallest stable N | T |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| {row['parameter']:.4g} | {bracket(row)} |" for row in glue]
+        worst = max(abs(row["difference"]) for row in glue)
+        lines += ["", f"Largest difference: {100 * worst:.2f} %."]
     (out / "README.md").write_text("\n".join(lines) + "\n")
     import matplotlib
 
@@ -320,12 +390,15 @@ def write_stability(out: Path, rows: list[dict], scene_path) -> None:
     import matplotlib.pyplot as plt
 
     figure, axis = plt.subplots(figsize=(6, 5))
-    for damage, marker in (("off", "o"), ("on", "s")):
-        points = [(row["predicted"], row["observed"]) for row in rows if row["damage"] == damage]
-        axis.loglog(*zip(*points), marker, label="λ_u = 0" if damage == "off" else "damage on", mfc="none")
+    series = (("elastic", "off", "o", "elastic, λ_u = 0"), ("elastic", "on", "s", "elastic, damage on"),
+              ("tangential glue", "on", "^", "tangential glue"))
+    for term, damage, marker, label in series:
+        points = [(row["predicted"], row["observed"]) for row in rows if row["term"] == term and row["damage"] == damage]
+        if points:
+            axis.loglog(*zip(*points), marker, label=label, mfc="none")
     limits = [min(row["predicted"] for row in rows) / 1.5, max(row["predicted"] for row in rows) * 1.5]
     axis.loglog(limits, limits, "k:", lw=1, label="observed = predicted")
-    axis.set_xlabel("predicted k* = 2/ρ")
+    axis.set_xlabel("predicted bound (2/ρ, 2/ρ_τ)")
     axis.set_ylabel("observed threshold k")
     axis.grid(True, which="both", alpha=0.3)
     axis.legend()
