@@ -226,24 +226,16 @@ GLUE_ALONE = {"body1.mesh.n": 8, "body2.mesh.n": 11, "glue.gammaNu": 0.0, "body1
               "body1.boundary.1.value": "0.2*min(t, 1)"}
 
 
-def predicted_bound(folder: Path, pattern: re.Pattern = ELASTIC_BOUND) -> float:
+def printed_bound(folder: Path, pattern: re.Pattern) -> float | None:
     """A bound as the driver computed and printed it (edp/lib/stability.idp) in the last run into
     `folder`, which may have stopped (runner.run leaves `<folder>.failed` then, and removes it
-    when a run succeeds)."""
+    when a run succeeds); None when the run printed none (no tangential glue, say)."""
     failed = folder.with_name(folder.name + ".failed")
     log = (failed if failed.exists() else folder) / "run.log"
     for line in log.read_text().splitlines():
         if line.startswith("stability:") and (match := pattern.search(line)):
             return float(match.group(1))
-    raise RuntimeError(f"no stability line matching {pattern.pattern} in {log}")
-
-
-def has_glue_line(folder: Path) -> bool:
-    try:
-        predicted_bound(folder, GLUE_BOUND)
-    except RuntimeError:
-        return False
-    return True
+    return None
 
 
 def is_unstable(scene_path, overrides: dict, folder: Path) -> bool:
@@ -284,14 +276,16 @@ def threshold(scene_path, overrides: dict, folder: Path, pattern: re.Pattern) ->
     horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
     probe = {**overrides, "solver.allow_unstable": True, "output.times": "none", "output.images": False}
     is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder)
-    k_star = predicted_bound(folder, pattern)
-    glue_bound = predicted_bound(folder, GLUE_BOUND) if pattern is not GLUE_BOUND and has_glue_line(folder) else None
+    k_star = printed_bound(folder, pattern)
+    if k_star is None:
+        raise RuntimeError(f"the run in {folder} printed no bound matching {pattern.pattern}")
+    glue_bound = printed_bound(folder, GLUE_BOUND) if pattern is not GLUE_BOUND else None
     horizon = max(5.0, 200 * k_star)
     steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star))
     stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
     observed = 0.5 * (stable_k + unstable_k)
-    return {"T": horizon, "predicted": k_star, "glueBound": glue_bound, "stableK": stable_k, "unstableK": unstable_k, "observed": observed,
-            "difference": observed / k_star - 1, "stableN": steps}
+    return {"T": horizon, "predicted": k_star, "glueBound": glue_bound, "stableK": stable_k,
+            "unstableK": unstable_k, "observed": observed, "difference": observed / k_star - 1, "stableN": steps}
 
 
 def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0),
