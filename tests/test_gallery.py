@@ -26,7 +26,7 @@ def coarse(name: str, folder, **overrides) -> Result:
 
 def check_interface(result: Result) -> None:
     """What every run must satisfy: the contact and glue forces on the two bodies cancel, and
-    no node is open beyond the tolerance where contact holds."""
+    no node penetrates beyond the contact tolerance (g_h ≤ contactTol)."""
     history = result.history
     scale = max(np.abs(history["forceX1"]).max(), np.abs(history["forceY1"]).max(), 1.0)
     assert history["forceBalance"].max() <= 1e-10 * scale, "the interface forces on the two bodies must cancel"
