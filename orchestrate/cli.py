@@ -1,4 +1,5 @@
-"""python -m orchestrate {run,render,sweep}: scenes, images and parameter sweeps from the shell."""
+"""python -m orchestrate {run,sweep,study,bench,gallery,render}: scenes, parameter sweeps, studies,
+the benchmark, the gallery and images from the shell."""
 from __future__ import annotations
 
 import argparse
@@ -140,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     sweep.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     sweep.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
     sweep.set_defaults(handler=command_sweep)
-    study = commands.add_parser("study", help="studies of a scene: convergence")
+    study = commands.add_parser("study", help="studies of a scene: convergence, stability")
     kinds = study.add_subparsers(dest="kind", required=True)
     convergence = kinds.add_parser("convergence", help="lock-step, time-only and space-only ladders, errors and rates")
     convergence.add_argument("scene", help="a scene whose meshes are nested under n -> 2n, e.g. scenes/paper.toml")

@@ -321,18 +321,21 @@ def bracket(row: dict) -> str:
             f"{100 * row['difference']:+.2f} % | {row['stableN']} | {row['T']:.4g}")
 
 
+def certain_bound(row: dict) -> float:
+    """2/(ρ + ρ_τ) from an elastic row's 2/ρ and 2/ρ_τ: below it the step is stable for certain."""
+    return 2 / (2 / row["predicted"] + 2 / row["glueBound"])
+
+
 def glue_columns(row: dict) -> str:
     """2/ρ_τ and the certain bound 2/(ρ + ρ_τ), for an elastic row run with tangential glue."""
     if not row["glueBound"]:
         return "– | –"
-    certain = 2 / (2 / row["predicted"] + 2 / row["glueBound"])
-    return f"{row['glueBound']:.4g} | {certain:.5g}"
+    return f"{row['glueBound']:.4g} | {certain_bound(row):.5g}"
 
 
 def within_theory(row: dict) -> bool:
     """Does the observed bracket [stableK, unstableK] meet [2/(ρ + ρ_τ), min(2/ρ, 2/ρ_τ)]?"""
-    certain = 2 / (2 / row["predicted"] + 2 / row["glueBound"])
-    return row["stableK"] <= min(row["predicted"], row["glueBound"]) and row["unstableK"] >= certain
+    return row["stableK"] <= min(row["predicted"], row["glueBound"]) and row["unstableK"] >= certain_bound(row)
 
 
 def write_stability(out: Path, rows: list[dict], scene_path) -> None:
@@ -378,6 +381,11 @@ def write_stability(out: Path, rows: list[dict], scene_path) -> None:
         worst = max(abs(row["difference"]) for row in glue)
         lines += ["", f"Largest difference: {100 * worst:.2f} %."]
     (out / "README.md").write_text("\n".join(lines) + "\n")
+    plot_stability(out / "stability.png", rows)
+
+
+def plot_stability(target: Path, rows: list[dict]) -> None:
+    """Observed against predicted bounds, one marker per term, on log axes."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -397,5 +405,5 @@ def write_stability(out: Path, rows: list[dict], scene_path) -> None:
     axis.grid(True, which="both", alpha=0.3)
     axis.legend()
     figure.tight_layout()
-    figure.savefig(out / "stability.png", dpi=110)
+    figure.savefig(target, dpi=110)
     plt.close(figure)

@@ -35,6 +35,15 @@ def test_a_broken_invariant_stops_the_run_and_keeps_earlier_steps(tmp_path):
     (["-labC1", "9"], ["labC1", "9", "labels: 1 2 3 4 5"]),
     (["-mesh2", "nowhere.msh"], ["-mesh2", "nowhere.msh", "not found"]),
     (["-outTimes", "0.5,x"], ["outTimes", "'x'"]),
+    (["extra"], ["unexpected argument 'extra'"]),
+    (["-contactSolver", "newton"], ["contactSolver", "newton", "pdas, bm"]),
+    (["-linearSolver", "PARDISO"], ["linearSolver", "PARDISO", "CHOLMOD, UMFPACK"]),
+    (["-outFields", "bodies,vorticity"], ["outFields", "vorticity", "bodies, stress, contact, state"]),
+    (["-skipIdle", "2"], ["skipIdle", "0 or 1"]),
+    (["-divergenceFactor", "0.5"], ["divergenceFactor", "> 1"]),
+    (["-zeta01", "1.5"], ["zeta01", "0 <= zeta0 <= 1"]),
+    (["-T", "-1"], ["T = -1", "T > 0"]),
+    (["-geo1", "meshes/nowhere.geo", "-n1", "12"], ["-geo1", "not found"]),
 ])
 def test_bad_input_is_refused_with_the_field_and_the_allowed_range(tmp_path, args, words):
     done, _ = solve(tmp_path / "run", *args)

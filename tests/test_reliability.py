@@ -102,24 +102,6 @@ def test_contact_traces_that_are_not_the_same_segment_are_refused(tmp_path):
     assert done.returncode == 3 and "not the same segment" in done.error_line
 
 
-@pytest.mark.parametrize("args, words", [
-    (["extra"], ["unexpected argument 'extra'"]),
-    (["-contactSolver", "newton"], ["contactSolver", "newton", "pdas, bm"]),
-    (["-linearSolver", "PARDISO"], ["linearSolver", "PARDISO", "CHOLMOD, UMFPACK"]),
-    (["-outFields", "bodies,vorticity"], ["outFields", "vorticity", "bodies, stress, contact, state"]),
-    (["-skipIdle", "2"], ["skipIdle", "0 or 1"]),
-    (["-divergenceFactor", "0.5"], ["divergenceFactor", "> 1"]),
-    (["-zeta01", "1.5"], ["zeta01", "0 <= zeta0 <= 1"]),
-    (["-T", "-1"], ["T = -1", "T > 0"]),
-    (["-geo1", "meshes/nowhere.geo", "-n1", "12"], ["-geo1", "not found"]),
-])
-def test_more_bad_driver_flags(tmp_path, args, words):
-    done, _ = solve(tmp_path / "run", *args)
-    assert done.returncode == 3
-    for word in words:
-        assert word in done.error_line, (word, done.error_line)
-
-
 def test_a_flag_without_its_value_is_refused(tmp_path):
     done = run_script(MAIN, ["-out", tmp_path / "run", "-N"])
     assert done.returncode == 3 and "flag -N needs a value" in done.error_line

@@ -109,17 +109,16 @@ SLIDING = {**GLUE_ALONE, "glue.pTau": 1000.0, "time.T": 5.0, "output.times": "no
 def test_the_tangential_glue_bound_is_sharp(tmp_path):
     from orchestrate import SolverError, run
 
-    shear = GLUE_SCENE
     with pytest.raises(SolverError) as refused:
-        run(shear, tmp_path / "refused", {**SLIDING, "time.N": 200})
+        run(GLUE_SCENE, tmp_path / "refused", {**SLIDING, "time.N": 200})
     assert refused.value.returncode == 3 and "tangential glue bound" in refused.value.message
     smallest = int(re.search(r"N >= (\d+)", refused.value.message).group(1))
     assert 100 < smallest < 5000  # p_τ dominates: far above the elastic N >= 1
     below = {**SLIDING, "time.N": int(0.99 * smallest), "solver.allow_unstable": True}
     with pytest.raises(SolverError) as diverged:
-        run(shear, tmp_path / "below", below)
+        run(GLUE_SCENE, tmp_path / "below", below)
     assert diverged.value.returncode == 5 and "diverges" in diverged.value.message
-    stable = run(shear, tmp_path / "above", {**SLIDING, "time.N": int(1.01 * smallest) + 1})
+    stable = run(GLUE_SCENE, tmp_path / "above", {**SLIDING, "time.N": int(1.01 * smallest) + 1})
     normV = stable.history["normV"]
     assert np.all(np.isfinite(normV)) and normV[-1] < 10 * normV[np.argmin(np.abs(stable.history["t"] - 1))]
 
