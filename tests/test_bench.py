@@ -4,7 +4,7 @@ import csv
 
 import pytest
 
-from orchestrate.bench import bench
+from orchestrate.bench import bench, graded_gains
 
 
 @pytest.fixture(scope="module")
@@ -35,3 +35,14 @@ def test_measurements_are_consistent(quick):
     for a, b in zip(uniform, bm):  # same meshes, the two contact solvers agree
         assert b["errorToReference"] == pytest.approx(a["errorToReference"], rel=1e-6)
         assert b["contactIters"] > 10 * a["contactIters"]
+
+
+def test_graded_gain_reads_the_uniform_curve_at_equal_error():
+    # a uniform curve wall = error^-2 is a straight line in log–log, so interpolation is exact:
+    # at error e the uniform run costs e^-2, and a graded run of wall w gains e^-2/w
+    uniform = [{"variant": "uniform, pdas", "errorEstimate": e, "wall": e ** -2} for e in (0.1, 0.05, 0.025)]
+    graded = [{"variant": "graded, pdas", "errorEstimate": e, "wall": w} for e, w in ((0.2, 1.0), (0.05, 100.0), (0.03, 250.0))]
+    gains = graded_gains(uniform + graded)
+    assert [error for error, _ in gains] == [0.03, 0.05]  # 0.2 lies outside the uniform range
+    assert gains[0][1] == pytest.approx(0.03 ** -2 / 250.0, rel=1e-12)
+    assert gains[1][1] == pytest.approx(4.0, rel=1e-12)
