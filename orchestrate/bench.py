@@ -219,7 +219,9 @@ def write(out: Path, rows: list[dict], solvers: list[dict], target: dict, levels
              "set-up, loop and output are FreeFEM's own CPU clock. *overhead* = time per step / the back-substitutions "
              "a step cannot avoid (one per body for u, one per body for ζ), timed in the same process. Errors: "
              "‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V against the finest level of the variant's family (exact: nested "
-             "meshes); *estimate* adds to the distances to the finer levels a geometric tail at the observed rate.", "",
+             "meshes); *estimate* adds to the distances to the finer levels a geometric tail at the observed rate. "
+             "Timings on this virtual machine drift by ±20 % between runs minutes apart: each measured level is the "
+             "fastest of 3 runs; a family's reference runs once.", "",
              "| variant | level | nodes (body 1, 2) | N | wall | start-up | meshing | set-up | loop | output | overhead | "
              "contact it/step | error to ref. | error estimate |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
