@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.results import load_result
 from orchestrate.runner import run
 from orchestrate.study import distances
@@ -185,7 +186,7 @@ def target_lines(rows: list[dict], target: dict | None) -> list[str]:
     lines.append("- graded meshes at least 4× faster at equal error: "
                  + (", ".join(f"{gain:.2f}× at {100 * error:.2f} %" for error, gain in gains)
                     or "no graded level inside the uniform curve's range"))
-    return lines + [""]
+    return lines
 
 
 def target_run(mesh1: Path, mesh2: Path, folder: Path, repeats: int = 3) -> dict:
@@ -244,22 +245,12 @@ def write(out: Path, rows: list[dict], solvers: list[dict], target: dict, levels
 
 
 def plot(target: Path, rows: list[dict]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axis = plt.subplots(figsize=(7, 5))
+    figure, axis = pyplot().subplots(figsize=(7, 5))
     for name, marker in zip(("uniform, pdas", "uniform, bm", "graded, pdas"), "osd"):
         points = [(row["errorEstimate"], row["wall"]) for row in rows if row["variant"] == name and "errorEstimate" in row]
         if points:
             errors, walls = zip(*points)
             axis.loglog(errors, walls, marker + "-", label=name)
     axis.invert_xaxis()
-    axis.set_xlabel("relative error ‖u_h(T) − u(T)‖_V / ‖u(T)‖_V (estimate)")
-    axis.set_ylabel("wall time of a run (s)")
-    axis.grid(True, which="both", alpha=0.3)
-    axis.legend()
-    figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
+    log_axes(axis, "relative error ‖u_h(T) − u(T)‖_V / ‖u(T)‖_V (estimate)", "wall time of a run (s)")
+    save(figure, target)

@@ -10,14 +10,13 @@ from pathlib import Path
 if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
     os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
 
-import matplotlib  # noqa: E402
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
+from orchestrate.plots import pyplot, save  # noqa: E402
 from orchestrate.results import Result  # noqa: E402
+
+plt = pyplot()
 
 pv.OFF_SCREEN = True
 # VTK's bundled font has no Greek letters, so the image titles spell them out.
@@ -99,9 +98,7 @@ def plot_contact_line(result: Result, target: Path) -> Path:
     axes[2].set_ylabel("contact pressure (N/m²)")
     axes[2].set_xlabel("position along Γ_C (m)")
     figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
-    figure.tight_layout()
-    figure.savefig(target, dpi=120)
-    plt.close(figure)
+    save(figure, target, dpi=120)
     return target
 
 
@@ -121,9 +118,7 @@ def plot_history(result: Result, target: Path) -> Path:
             axis.legend(fontsize=8)
     for axis in axes[-1]:
         axis.set_xlabel("t (s)")
-    figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
+    save(figure, target)
     return target
 
 
@@ -147,9 +142,7 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     axis.set_xlabel("position along Γ_C (m)")
     axis.set_ylabel("t (s)")
     axis.set_title("Bonding β along Γ_C over time")
-    figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
+    save(figure, target)
     return target
 
 

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
+from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.results import load_result, read_state
 from orchestrate.scene import Scene
 from orchestrate.sweep import plan, run_jobs
@@ -187,13 +188,9 @@ def markdown(table: list[dict], command: str) -> str:
 
 
 def plot(target: Path, table: list[dict]) -> None:
-    import matplotlib
     import matplotlib.ticker
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    figure, axes = pyplot().subplots(1, 3, figsize=(15, 4.6))
     for axis, ladder in zip(axes, ("lockstep", "time", "space")):
         rows = [row for row in table if row["ladder"] == ladder and "errorV" in row]
         size = "k" if ladder == "time" else "h1"
@@ -209,9 +206,7 @@ def plot(target: Path, table: list[dict]) -> None:
         axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     axes[0].set_ylabel("max over t of the error")
     axes[0].legend(fontsize=8)
-    figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
+    save(figure, target)
 
 
 # --- stability --------------------------------------------------------------------------------
@@ -386,12 +381,7 @@ def write_stability(out: Path, rows: list[dict], scene_path) -> None:
 
 def plot_stability(target: Path, rows: list[dict]) -> None:
     """Observed against predicted bounds, one marker per term, on log axes."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, axis = plt.subplots(figsize=(6, 5))
+    figure, axis = pyplot().subplots(figsize=(6, 5))
     series = (("elastic", "off", "o", "elastic, λ_u = 0"), ("elastic", "on", "s", "elastic, damage on"),
               ("tangential glue", "on", "^", "tangential glue"))
     for term, damage, marker, label in series:
@@ -400,10 +390,5 @@ def plot_stability(target: Path, rows: list[dict]) -> None:
             axis.loglog(*zip(*points), marker, label=label, mfc="none")
     limits = [min(row["predicted"] for row in rows) / 1.5, max(row["predicted"] for row in rows) * 1.5]
     axis.loglog(limits, limits, "k:", lw=1, label="observed = predicted")
-    axis.set_xlabel("predicted bound (2/ρ, 2/ρ_τ)")
-    axis.set_ylabel("observed threshold k")
-    axis.grid(True, which="both", alpha=0.3)
-    axis.legend()
-    figure.tight_layout()
-    figure.savefig(target, dpi=110)
-    plt.close(figure)
+    log_axes(axis, "predicted bound (2/ρ, 2/ρ_τ)", "observed threshold k")
+    save(figure, target)

@@ -1,0 +1,29 @@
+"""The matplotlib set-up and the saving that the images, the studies and the benchmark share."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend: plots go to files, never to a screen."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def log_axes(axis, xlabel: str, ylabel: str) -> None:
+    """The labels, a grid at every decade line and the legend of a log–log plot."""
+    axis.set_xlabel(xlabel)
+    axis.set_ylabel(ylabel)
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend()
+
+
+def save(figure, target: Path, dpi: int = 110) -> None:
+    """Lay out, write and close a figure (closed, so that a long sweep does not pile them up)."""
+    figure.tight_layout()
+    figure.savefig(target, dpi=dpi)
+    pyplot().close(figure)
