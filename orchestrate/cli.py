@@ -71,7 +71,7 @@ def command_stability(options) -> int:
 def command_bench(options) -> int:
     from orchestrate.bench import bench
 
-    bench(options.out, levels=options.levels)
+    bench(options.out, levels=options.levels, check_reference=options.check_reference)
     print((Path(options.out) / "README.md").read_text())
     return 0
 
@@ -159,7 +159,10 @@ def main(argv: list[str] | None = None) -> int:
     stable.add_argument("--out", default="results/stability")
     stable.set_defaults(handler=command_stability)
     benchmark = commands.add_parser("bench", help="run time against error on this machine (results/bench)")
-    benchmark.add_argument("--levels", type=at_least_two, default=5, help="measured levels per variant (finest: reference)")
+    benchmark.add_argument("--levels", type=at_least_two, default=5,
+                           help="measured uniform levels (one fewer graded: the next graded level is the reference)")
+    benchmark.add_argument("--check-reference", action="store_true",
+                           help="also measure a uniform run finer than every level against the reference (minutes)")
     benchmark.add_argument("--out", default="results/bench")
     benchmark.set_defaults(handler=command_bench)
     gallery = commands.add_parser("gallery", help="run the gallery scenes into results/gallery")
