@@ -1,21 +1,10 @@
 // Body 1 of the paper's scene (labels as paper_body1.geo: 1 Γ_C, 2 right, 3 top x ≥ 3, 4 top x ≤ 3,
 // 5 left), graded toward the points where the solution is singular: the clamped corners (0,0) and
-// (0,6), the load jump (3,6) and the end (6,0) of Γ_C. At distance r from the nearest of them the
-// size is h·(r/radius)^grade (h = 6/n), between hmin and h, where hmin = h·(h/radius)^(grade/(1−grade))
-// is the size at which an element reaches from the point to its own size. For a singularity
-// r^λ with λ > 1 − grade this restores P1's optimal rate, error ∝ nodes^(−1/2), as n grows: the
-// grading gets stronger with every level (hmin ∝ h² at grade 1/2), so these meshes are not nested.
-// The edge of the contact zone (near (3.75,0)) and body 2's corner (6,−6) are left out: refining
-// there cost nodes without lowering the error (docs/model-choices.md, "Graded meshes").
+// (0,6), the load jump (3,6) and the end (6,0) of Γ_C, by the power law of graded_size.geo
+// (h = 6/n). The edge of the contact zone (near (3.75,0)) and body 2's corner (6,−6) are left out:
+// refining there cost nodes without lowering the error (docs/model-choices.md, "Graded meshes").
 DefineConstant[ n = 6, grade = 0.5, radius = 3 ];
-If (grade <= 0 || grade >= 1)
-  Error("grade = %g: the grading exponent must lie in (0, 1)", grade);
-EndIf
-If (radius <= 0)
-  Error("radius = %g: the grading radius must be positive", radius);
-EndIf
 h = 6 / n;
-hmin = h * (h / radius)^(grade / (1 - grade));
 Point(1) = {0, 0, 0, h};
 Point(2) = {6, 0, 0, h};
 Point(3) = {6, 6, 0, h};
@@ -28,13 +17,8 @@ Line(4) = {4, 5};
 Line(5) = {5, 1};
 Curve Loop(1) = {1, 2, 3, 4, 5};
 Plane Surface(1) = {1};
-Field[1] = Distance;
-Field[1].PointsList = {1, 2, 4, 5};
-Field[2] = MathEval;
-Field[2].F = Sprintf("Min(%.17g, Max(%.17g, %.17g*(F1/%.17g)^%.17g))", h, hmin, h, radius, grade);
-Background Field = 2;
-Mesh.MeshSizeFromPoints = 0;
-Mesh.MeshSizeExtendFromBoundary = 0;
+singular[] = {1, 2, 4, 5};
+Include "graded_size.geo";
 Physical Curve(1) = {1};
 Physical Curve(2) = {2};
 Physical Curve(3) = {3};

@@ -1,7 +1,7 @@
 """Meshes of scene bodies, made with gmsh's Python API and cached by content.
 
-The cache key is the .geo text, the -setnumber values and gmsh's version, so an edited source or
-another gmsh gives a new mesh and never a stale one. A body given only by its n uses the committed
+The cache key is the .geo text and that of the files it includes, the -setnumber values and
+gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale one. A body given only by its n uses the committed
 <geo>-n<n>.msh when it exists, the rule edp/main.edp follows, so a scene and the driver run by
 hand mesh the paper's scene identically.
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -24,11 +25,27 @@ class MeshError(RuntimeError):
     """gmsh could not mesh a body."""
 
 
+INCLUDE = re.compile(r'^\s*Include\s*"([^"]+)"', re.MULTILINE)
+
+
+def geo_sources(source: Path) -> list[Path]:
+    """A .geo file and every file it includes, however deep (gmsh resolves an Include against the
+    including file's folder), each once."""
+    found = [source.resolve()]
+    for path in found:
+        for name in INCLUDE.findall(path.read_text()):
+            included = (path.parent / name).resolve()
+            if included not in found:
+                found.append(included)
+    return found
+
+
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
     import gmsh
 
     digest = hashlib.sha256()
-    digest.update(source.read_bytes())
+    for path in geo_sources(source):
+        digest.update(path.read_bytes())
     digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
     digest.update(gmsh.__version__.encode())
     return digest.hexdigest()[:24]

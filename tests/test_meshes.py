@@ -78,3 +78,15 @@ def test_refinement_splits_every_triangle_in_four(tmp_path):
     assert len(fine.cells_dict["triangle"]) == 4 * len(coarse.cells_dict["triangle"])
     old = {tuple(np.round(point[:2], 12)) for point in coarse.points}
     assert old <= {tuple(np.round(point[:2], 12)) for point in fine.points}
+
+
+def test_the_cache_key_follows_included_files(tmp_path):
+    """A graded mesh's size law lives in an included file: editing it must give a new mesh."""
+    from orchestrate.mesh import cache_key
+
+    for name in ("paper_body2_graded.geo", "graded_size.geo"):
+        (tmp_path / name).write_text((REPO / "meshes" / name).read_text())
+    source = tmp_path / "paper_body2_graded.geo"
+    before = cache_key(source, {"n": 8})
+    (tmp_path / "graded_size.geo").write_text((REPO / "meshes/graded_size.geo").read_text() + "// edited\n")
+    assert cache_key(source, {"n": 8}) != before
