@@ -162,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
     benchmark.add_argument("--levels", type=at_least_two, default=5,
                            help="measured uniform levels (one fewer graded: the next graded level is the reference)")
     benchmark.add_argument("--check-reference", action="store_true",
-                           help="also measure a uniform run finer than every level against the reference (minutes)")
+                           help="also run a uniform level finer than every other and measure every run against it too "
+                                "(about six minutes more)")
     benchmark.add_argument("--out", default="results/bench")
     benchmark.set_defaults(handler=command_bench)
     gallery = commands.add_parser("gallery", help="run the gallery scenes into results/gallery")
