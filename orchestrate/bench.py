@@ -14,10 +14,11 @@ against one common reference for every variant: the graded mesh one level finer 
 measured graded level, with twice its steps (edp/tools/errors.edp interpolates each run onto the
 reference's meshes). With --check-reference, a uniform run finer than every measured level is
 also measured against the reference (that distance bounds what the reference's own error can do
-to the figures), and every run against it, so the graded gains can be read against either. Also: the time of the paper's scene at h1 = 6/96, N = 320 by FreeFem++ alone, the
-sparse solvers timed on each matrix, and where the issue's speed targets stand (the graded gain
-at equal error reads both work–precision curves, interpolated in log–log). Writes bench.csv,
-README.md and workprecision.png.
+to the figures), and every run against it, so the graded gains can be read against either.
+Also: the time of the paper's scene at h1 = 6/96, N = 320 by FreeFem++ alone, the sparse solvers
+timed on each matrix, and where the issue's speed targets stand (the graded gain at equal error
+reads both work–precision curves, interpolated in log–log). Writes bench.csv, README.md and
+workprecision.png.
 """
 from __future__ import annotations
 
@@ -41,21 +42,30 @@ MEASURE = 10  # repetitions of the unavoidable back-substitutions timed after ea
 REPEATS = 3  # runs of each measured level, the fastest kept: this machine's timings drift by ±20 %
 
 
-def uniform_level(level: int, steps: int) -> dict:
+PAPER, GRADED = REPO / "scenes" / "paper.toml", REPO / "scenes" / "paper_graded.toml"
+
+
+def level(l: int, steps: int | None = None) -> dict:
+    """Level l of the ladder: n1 = 6·2^l, n2 = 8·2^l, N = 20·2^l unless `steps` is given."""
+    return {"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l, "time.N": steps or 20 * 2 ** l}
+
+
+def uniform_level(l: int, steps: int | None = None) -> dict:
     # structured given explicitly: every level is meshed, none read from the committed default
-    return {"body1.mesh.n": 6 * 2 ** level, "body2.mesh.n": 8 * 2 ** level, "body1.mesh.structured": True,
-            "body2.mesh.structured": True, "time.N": steps}
+    return {**level(l, steps), "body1.mesh.structured": True, "body2.mesh.structured": True}
 
 
-def variants(levels: int) -> dict[str, tuple[Path, list[dict]]]:
-    """`levels` measured uniform levels; one fewer graded, whose next level is the reference."""
-    uniform = [uniform_level(l, 20 * 2 ** l) for l in range(levels)]
-    graded = [{"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l, "time.N": 20 * 2 ** l} for l in range(levels)]
-    graded[-1]["time.N"] *= 2
-    bm = [{**level, "solver.contact": "bm"} for level in uniform]
-    paper, graded_scene = REPO / "scenes" / "paper.toml", REPO / "scenes" / "paper_graded.toml"
-    return {"uniform, pdas": (paper, uniform), "uniform, bm": (paper, bm), "graded, pdas": (graded_scene, graded[:-1]),
-            REFERENCE: (graded_scene, graded[-1:])}
+def variants(levels: int, check_reference: bool = False) -> dict[str, tuple[Path, list[dict]]]:
+    """`levels` measured uniform levels; one fewer graded, whose next level, with twice its steps,
+    is the reference; the check is the uniform level two finer than the last, at the reference's N."""
+    uniform = [uniform_level(l) for l in range(levels)]
+    ladders = {"uniform, pdas": (PAPER, uniform),
+               "uniform, bm": (PAPER, [{**overrides, "solver.contact": "bm"} for overrides in uniform]),
+               "graded, pdas": (GRADED, [level(l) for l in range(levels - 1)]),
+               REFERENCE: (GRADED, [level(levels - 1, 20 * 2 ** levels)])}
+    if check_reference:
+        ladders[CHECK] = (PAPER, [uniform_level(levels + 1, 20 * 2 ** levels)])
+    return ladders
 
 
 def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
@@ -116,28 +126,22 @@ def bench(out: str | Path, levels: int = 5, check_reference: bool = False) -> li
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    ladders = variants(levels)
-    if check_reference:
-        ladders[CHECK] = (REPO / "scenes" / "paper.toml", [uniform_level(levels + 1, ladders[REFERENCE][1][0]["time.N"])])
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
-        folders: dict[str, list[Path]] = {}
-        for name, (scene, ladder) in ladders.items():
+        for name, (scene, ladder) in variants(levels, check_reference).items():
             slug = name.replace(", ", "-").replace(" ", "-")
-            cache = scratch / "meshes" / slug
             repeats = 1 if name in (REFERENCE, CHECK) else REPEATS  # the longest runs, never compared in time
-            for level, overrides in enumerate(ladder):
-                folder = scratch / slug / f"level{level}"
-                rows.append({"variant": name, "level": level, "folder": folder,
-                             **fastest_run(scene, overrides, folder, cache, repeats)})
-                folders.setdefault(name, []).append(folder)
-        for row in rows:
-            if row["variant"] != REFERENCE:
-                row["errorToReference"] = final_distance(row["folder"], folders[REFERENCE][0])
-            if check_reference and row["variant"] != CHECK:
-                row["errorToCheck"] = final_distance(row["folder"], folders[CHECK][0])
+            for index, overrides in enumerate(ladder):
+                folder = scratch / slug / f"level{index}"
+                rows.append({"variant": name, "level": index, "folder": folder,
+                             **fastest_run(scene, overrides, folder, scratch / "meshes" / slug, repeats)})
+        folder_of = {row["variant"]: row["folder"] for row in rows}  # a variant's last (finest) level
+        for key, reference in (("errorToReference", REFERENCE), ("errorToCheck", CHECK)):
+            for row in rows:
+                if reference in folder_of and row["variant"] != reference:
+                    row[key] = final_distance(row["folder"], folder_of[reference])
         # the finest measured uniform level: h1 = 6/96 at the default five levels
-        fine = load_result(folders["uniform, pdas"][-1]).params
+        fine = load_result(folder_of["uniform, pdas"]).params
         (scratch / "solvers").mkdir()
         for body in (1, 2):
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes(Path(fine[f"meshFile{body}"]).read_bytes())
@@ -179,8 +183,7 @@ def graded_gains(rows: list[dict], key: str = "errorToReference") -> list[tuple[
 def target_lines(rows: list[dict], target: dict | None) -> list[str]:
     """Where the issue's three speed targets stand, from this run's figures."""
     lines = ["## Against the targets", ""]
-    # body 1 of the uniform ladder is a square grid: (n + 1)² nodes for h1 = 6/n
-    ratios = [f"{row['overheadRatio']:.2f} at h1 = 6/{round(row['nodes1'] ** 0.5) - 1}"
+    ratios = [f"{row['overheadRatio']:.2f} at h1 = {h1(row)}"
               for row in rows if row["variant"] == "uniform, pdas" and row["nodes1"] >= 49 ** 2]
     lines.append("- overhead ratio ≤ 1.5 from h1 = 6/48 up (uniform, pdas): " + (", ".join(ratios) or "no level that fine"))
     if target:
@@ -190,6 +193,11 @@ def target_lines(rows: list[dict], target: dict | None) -> list[str]:
         lines.append("  - the same with every error measured against the reference check instead: "
                      + gain_text(graded_gains(rows, "errorToCheck")))
     return lines
+
+
+def h1(row: dict) -> str:
+    """h1 of a uniform level: body 1 is a square grid, (n + 1)² nodes for h1 = 6/n."""
+    return f"6/{round(row['nodes1'] ** 0.5) - 1}"
 
 
 def gain_text(gains: list[tuple[float, float]]) -> str:
@@ -251,7 +259,7 @@ def write(out: Path, rows: list[dict], solvers: list[dict], target: dict, levels
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     for row in rows:
         if row["variant"] == CHECK:
-            lines += ["", f"Reference check: a uniform run finer than every measured level (h1 = 6/{6 * 2 ** (levels + 1)}, "
+            lines += ["", f"Reference check: a uniform run finer than every measured level (h1 = {h1(row)}, "
                       f"N = {row['N']}) lies {100 * row['errorToReference']:.2f} % from the reference (the reference "
                       f"{100 * next(r['errorToCheck'] for r in rows if r['variant'] == REFERENCE):.2f} % from it, "
                       "measured on its meshes). Both have errors of their own, so errors in the table much below "

@@ -1,9 +1,9 @@
 """Meshes of scene bodies, made with gmsh's Python API and cached by content.
 
 The cache key is the .geo text and that of the files it includes, the -setnumber values and
-gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale one. A body given only by its n uses the committed
-<geo>-n<n>.msh when it exists, the rule edp/main.edp follows, so a scene and the driver run by
-hand mesh the paper's scene identically.
+gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale one. A body
+given only by its n uses the committed <geo>-n<n>.msh when it exists, the rule edp/main.edp
+follows, so a scene and the driver run by hand mesh the paper's scene identically.
 """
 from __future__ import annotations
 

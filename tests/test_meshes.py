@@ -1,15 +1,13 @@
 """The committed default meshes are what their gmsh sources give (a stale .msh would silently
 replace the geometry), and they do not match on Γ_C (body 2 about 4/3 as fine as body 1); graded
 meshes follow their size law and refinement nests."""
-from pathlib import Path
-
 import meshio
 import numpy as np
 import pytest
 
 from conftest import gmsh_mesh
 from orchestrate.freefem import REPO
-from orchestrate.mesh import MeshError, body_mesh
+from orchestrate.mesh import MeshError, body_mesh, cache_key
 
 
 @pytest.mark.parametrize("body, n", [(1, 24), (2, 32)])
@@ -31,8 +29,8 @@ def test_default_traces_do_not_match():
 def test_a_mesh_does_not_inherit_the_constants_of_an_earlier_one(tmp_path):
     """gmsh keeps -setnumber values for the life of a process: a tilted box meshed after a
     rectangle given y0 = −1 must still start at its own default y0 = 0.6 (meshes/tilted_box.geo)."""
-    body_mesh(Path(REPO / "meshes/rectangle.geo"), {"n": 4, "y0": -1.0, "y1": 0.0}, cache=tmp_path)
-    box = meshio.read(body_mesh(Path(REPO / "meshes/tilted_box.geo"), {"n": 6, "side": 1.0}, cache=tmp_path))
+    body_mesh(REPO / "meshes/rectangle.geo", {"n": 4, "y0": -1.0, "y1": 0.0}, cache=tmp_path)
+    box = meshio.read(body_mesh(REPO / "meshes/tilted_box.geo", {"n": 6, "side": 1.0}, cache=tmp_path))
     assert box.points[:, 1].min() == pytest.approx(0.6, abs=1e-12)
     assert box.points[:, 1].max() == pytest.approx(2.0, abs=1e-12)
 
@@ -49,7 +47,7 @@ def test_graded_mesh_follows_its_size_law(tmp_path):
     grows as n² (∫ r dr / size² is finite), the property that gives P1 its optimal rate there."""
     nodes = []
     for n in (24, 48):
-        mesh = meshio.read(body_mesh(Path(REPO / "meshes/paper_body1_graded.geo"), {"n": n}, cache=tmp_path))
+        mesh = meshio.read(body_mesh(REPO / "meshes/paper_body1_graded.geo", {"n": n}, cache=tmp_path))
         h = 6 / n
         hmin = h * (h / 3)
         pairs, lengths = _edges(mesh)
@@ -63,13 +61,13 @@ def test_graded_mesh_follows_its_size_law(tmp_path):
 
 def test_a_grading_exponent_outside_its_range_is_refused(tmp_path):
     with pytest.raises(MeshError, match=r"grade = 1\.5: the grading exponent must lie in \(0, 1\)"):
-        body_mesh(Path(REPO / "meshes/paper_body2_graded.geo"), {"n": 8, "grade": 1.5}, cache=tmp_path)
+        body_mesh(REPO / "meshes/paper_body2_graded.geo", {"n": 8, "grade": 1.5}, cache=tmp_path)
 
 
 def test_refinement_splits_every_triangle_in_four(tmp_path):
     """mesh.refine: each triangle becomes four through its edge midpoints, so the refined mesh has
     one new node per edge (V + E nodes, 4T triangles) and keeps every old node (nested meshes)."""
-    source = Path(REPO / "meshes/paper_body2_graded.geo")
+    source = REPO / "meshes/paper_body2_graded.geo"
     coarse = meshio.read(body_mesh(source, {"n": 8}, cache=tmp_path))
     fine = meshio.read(body_mesh(source, {"n": 8}, refine=1, cache=tmp_path))
     pairs, _ = _edges(coarse)
@@ -82,8 +80,6 @@ def test_refinement_splits_every_triangle_in_four(tmp_path):
 
 def test_the_cache_key_follows_included_files(tmp_path):
     """A graded mesh's size law lives in an included file: editing it must give a new mesh."""
-    from orchestrate.mesh import cache_key
-
     for name in ("paper_body2_graded.geo", "graded_size.geo"):
         (tmp_path / name).write_text((REPO / "meshes" / name).read_text())
     source = tmp_path / "paper_body2_graded.geo"
