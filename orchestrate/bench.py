@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.manifest import facts
 from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.results import load_result
 from orchestrate.runner import run
@@ -76,7 +77,8 @@ def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
     steps = overrides["time.N"]
     measured = timing["backsubsPerStep"] * MEASURE
     solver_wall = timing["solver"] - measured
-    return {"nodes1": _nodes(result, 1), "nodes2": _nodes(result, 2), "N": steps,
+    counts = facts(folder)
+    return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"], "N": steps,
             "startup": solver_wall - (timing["solverTotalCpu"] - measured), "meshing": timing["meshing"],
             "setup": timing["solverSetupCpu"], "loop": timing["solverLoopCpu"] - measured,
             "output": timing["solverOutputCpu"], "wall": timing["meshing"] + solver_wall,
@@ -90,14 +92,6 @@ def fastest_run(scene: Path, overrides: dict, folder: Path, cache: Path, repeats
     runs = [timed_run(scene, overrides, folder, cache) for _ in range(repeats)]
     best = min(runs, key=lambda row: row["wall"] - row["meshing"])
     return {**best, "meshing": runs[0]["meshing"], "wall": best["wall"] - best["meshing"] + runs[0]["meshing"]}
-
-
-def _nodes(result, body: int) -> int:
-    with open(result.params[f"meshFile{body}"]) as handle:
-        for line in handle:
-            if line.startswith("$Nodes"):
-                return int(next(handle))
-    return 0
 
 
 def final_distance(run_folder: Path, reference: Path) -> float:
@@ -141,14 +135,15 @@ def bench(out: str | Path, levels: int = 5, check_reference: bool = False) -> li
                 if reference in folder_of and row["variant"] != reference:
                     row[key] = final_distance(row["folder"], folder_of[reference])
         # the finest measured uniform level: h1 = 6/96 at the default five levels
-        fine = load_result(folder_of["uniform, pdas"]).params
+        finest = folder_of["uniform, pdas"]
+        fine = load_result(finest).params
         (scratch / "solvers").mkdir()
         for body in (1, 2):
-            (scratch / "solvers" / f"mesh{body}.msh").write_bytes(Path(fine[f"meshFile{body}"]).read_bytes())
+            (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
         solvers = solver_table(scratch / "solvers", fine["N"])
         target = None
         if fine["N"] == 320:
-            target = target_run(Path(fine["meshFile1"]), Path(fine["meshFile2"]), scratch / "target")
+            target = target_run(finest / "body1.msh", finest / "body2.msh", scratch / "target")
     write(out, rows, solvers, target, levels, check_reference)
     return rows
 

@@ -1,8 +1,13 @@
-"""Launching FreeFem++ with the project's plugin and include paths.
+"""Launching FreeFem++ with the project's plugin path.
 
 Debian's /etc/freefem++.pref points at a plugin folder that does not exist; the plugins
-(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++. FF_LOADPATH and FF_INCLUDEPATH
-fix both paths for any working folder; FF_VERBOSITY=0 keeps FreeFEM from echoing the script.
+(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++. FF_LOADPATH fixes that for any
+working folder; FF_VERBOSITY=0 keeps FreeFEM from echoing the script. The scripts include their
+libraries by paths relative to their own folder, so no include path is needed.
+
+No path a user chooses ever reaches FreeFEM's macro preprocessor or its source text: a run is
+launched in its own folder with fixed file names (runner.py); the only path FreeFEM is given is
+the script's, and a repository location FreeFEM could not take is refused here.
 """
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ import os
 import shutil
 import signal
 import subprocess
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +35,16 @@ EXIT_MEANING = {
 }
 
 
+# Signals that end FreeFem++ for a reason the user can act on.
+KILLED = {signal.SIGXFSZ: "killed by SIGXFSZ: a file outgrew the file-size limit (ulimit -f); the files are cut short",
+          signal.SIGKILL: "killed by SIGKILL (out of memory, or ended by hand)",
+          signal.SIGSEGV: "crashed (SIGSEGV), often from memory exhaustion"}
+
+
+class InputError(ValueError):
+    """Input refused before anything runs; the message names the field and what is allowed."""
+
+
 class SolverError(RuntimeError):
     """FreeFem++ stopped with a non-zero exit code."""
 
@@ -36,7 +52,8 @@ class SolverError(RuntimeError):
         self.returncode = returncode
         self.message = message
         self.log_tail = log_tail
-        meaning = EXIT_MEANING.get(returncode, f"killed by signal {-returncode}" if returncode < 0 else "unexpected exit")
+        meaning = EXIT_MEANING.get(returncode, KILLED.get(-returncode, f"killed by signal {-returncode}")
+                                   if returncode < 0 else "unexpected exit")
         super().__init__(f"FreeFem++ exit {returncode} ({meaning}): {message}")
 
 
@@ -44,12 +61,27 @@ _LIBC = ctypes.CDLL(None, use_errno=True)
 PR_SET_PDEATHSIG = 1
 
 
-def _own_group_dying_with_parent() -> None:
+def own_group_dying_with_parent() -> None:
     """In the child, before exec: a process group of its own (so that it and whatever it starts
     can be ended together), and SIGKILL when the process that started it dies (a sweep's worker
     ended by an interruption leaves no FreeFem++ running). Only a system call: safe after fork."""
     os.setsid()
     _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def require_plain_path(path: Path, what: str) -> None:
+    """Refuse a path with a control character or bytes that are not UTF-8: FreeFEM, JSON, TOML
+    and the terminal cannot all carry it faithfully. Every other character works."""
+    text = str(path)
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{what} {text.encode('utf-8', 'surrogateescape').decode('utf-8', 'backslashreplace')} is not valid UTF-8: "
+                         "rename it with UTF-8 characters") from None
+    bad = sorted({repr(c) for c in text if unicodedata.category(c) == "Cc"})
+    if bad:
+        raise InputError(f"{what} {text!r} contains the control character(s) {', '.join(bad)}: "
+                         "use printable characters")
 
 
 def freefem_binary() -> str:
@@ -62,7 +94,6 @@ def freefem_binary() -> str:
 def freefem_env() -> dict[str, str]:
     env = dict(os.environ)
     env["FF_LOADPATH"] = str(PLUGIN_DIR)
-    env["FF_INCLUDEPATH"] = str(REPO / "edp" / "lib")
     env.setdefault("FF_VERBOSITY", "0")
     return env
 
@@ -88,7 +119,7 @@ def run_script(script: Path | str, args: list[str] = (), cwd: Path | None = None
     """Run a FreeFEM script to completion in its own process group; return code and output."""
     process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd or REPO, env=freefem_env(),
                                text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               preexec_fn=_own_group_dying_with_parent)
+                               preexec_fn=own_group_dying_with_parent)
     try:
         stdout, stderr = process.communicate(timeout=timeout)
     except BaseException:
@@ -116,21 +147,18 @@ def stop_group(process: subprocess.Popen) -> None:
         pass
 
 
-def run_logged(script: Path | str, args, log: Path, on_line=None, defines: dict[str, str] | None = None) -> Completed:
-    """Run a FreeFEM script with its output (stdout and stderr) streamed into `log` and, line by
-    line, to on_line. An exception here (KeyboardInterrupt included) ends its process group."""
+def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str, str] | None = None) -> Completed:
+    """Run a FreeFEM script in folder `cwd` with its output (stdout and stderr) written to `log`.
+    An exception here (KeyboardInterrupt included) ends its process group. Signals Python ignores
+    (SIGXFSZ among them) are restored for the child, so a file-size limit stops FreeFem++ instead
+    of letting its writes fail silently."""
     with open(log, "w") as sink:
-        process = subprocess.Popen(freefem_command(script, args, defines), cwd=REPO, env=freefem_env(), text=True,
-                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, bufsize=1,
-                                   preexec_fn=_own_group_dying_with_parent, restore_signals=False)
+        process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd, env=freefem_env(), text=True,
+                                   stdout=sink, stderr=subprocess.STDOUT, preexec_fn=own_group_dying_with_parent)
         try:
-            for line in process.stdout:
-                sink.write(line)
-                if on_line:
-                    on_line(line)
             process.wait()
         except BaseException:
             stop_group(process)
             raise
-    text = log.read_text()
+    text = log.read_text(errors="replace")
     return Completed(process.returncode, text, "")

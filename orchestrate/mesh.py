@@ -1,9 +1,13 @@
-"""Meshes of scene bodies, made with gmsh's Python API and cached by content.
+"""Meshes of scene bodies, made with gmsh's Python API, cached by content and checked whole.
 
 The cache key is the .geo text and that of the files it includes, the -setnumber values and
 gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale one. A body
 given only by its n uses the committed <geo>-n<n>.msh when it exists, the rule edp/main.edp
 follows, so a scene and the driver run by hand mesh the paper's scene identically.
+
+gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
+.msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
+cache and again before it is used; a bad cache entry is rebuilt.
 """
 from __future__ import annotations
 
@@ -14,18 +18,24 @@ import re
 import subprocess
 import sys
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 
-from orchestrate.freefem import REPO
+import numpy as np
+
+from orchestrate.freefem import REPO, own_group_dying_with_parent, stop_group
 
 CACHE = REPO / "results" / ".cache" / "meshes"
+BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
 
 
 class MeshError(RuntimeError):
-    """gmsh could not mesh a body."""
+    """gmsh could not mesh a body, or a mesh file is not whole."""
 
 
 INCLUDE = re.compile(r'^\s*Include\s*"([^"]+)"', re.MULTILINE)
+DEFINE_CONSTANT = re.compile(r"DefineConstant\s*\[(.*?)\]\s*;", re.DOTALL)
+CONSTANT_NAME = re.compile(r"(?:^|,)\s*([A-Za-z_][A-Za-z_0-9]*)\s*=")
 
 
 def geo_sources(source: Path) -> list[Path]:
@@ -40,6 +50,71 @@ def geo_sources(source: Path) -> list[Path]:
     return found
 
 
+def geo_constants(source: Path) -> list[str]:
+    """The DefineConstant names of a .geo file and its includes: the values -setnumber can set.
+    (Only top-level `name = value` items: a constant given as {value, Min ..., Name "..."} is
+    found by its name before the brace.)"""
+    names = []
+    for path in geo_sources(source):
+        for block in DEFINE_CONSTANT.findall(re.sub(r"//[^\n]*", "", path.read_text())):
+            names += [name for name in CONSTANT_NAME.findall(re.sub(r"\{[^}]*\}", "0", block)) if name not in names]
+    return names
+
+
+@dataclass(frozen=True)
+class MeshInfo:
+    """What a whole gmsh 2.2 file holds: node and triangle counts, and the number of boundary
+    segments of each physical line tag (the FreeFEM labels)."""
+    nodes: int
+    triangles: int
+    segments: dict[int, int]
+
+
+def read_msh(path: Path) -> MeshInfo:
+    """Read a gmsh 2.2 ASCII file back whole: every section closed, as many node and element lines
+    as their headers say, finite coordinates. Raises MeshError naming the file and the fault."""
+    def fault(what: str) -> MeshError:
+        return MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {what} "
+                         "(cut short by a full disk or a file-size limit? mesh it again)")
+
+    try:
+        lines = path.read_bytes().split(b"\n")
+    except OSError as error:
+        raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
+    position = {line.strip(): index for index, line in enumerate(lines) if line.startswith(b"$")}
+    if len(lines) < 2 or lines[0].strip() != b"$MeshFormat" or not lines[1].startswith(b"2.2 "):
+        raise fault("it does not start with $MeshFormat 2.2")
+    for section in (b"$Nodes", b"$EndNodes", b"$Elements", b"$EndElements"):
+        if section not in position:
+            raise fault(f"no {section.decode()} line")
+    try:
+        nodes = int(lines[position[b"$Nodes"] + 1])
+        elements = int(lines[position[b"$Elements"] + 1])
+    except ValueError:
+        raise fault("a section count is not a number") from None
+    node_lines = lines[position[b"$Nodes"] + 2: position[b"$EndNodes"]]
+    element_lines = lines[position[b"$Elements"] + 2: position[b"$EndElements"]]
+    if len(node_lines) != nodes or len(element_lines) != elements:
+        raise fault(f"{len(node_lines)} of {nodes} nodes and {len(element_lines)} of {elements} elements")
+    try:
+        coordinates = np.array(b" ".join(node_lines).split(), dtype=float)
+    except ValueError:
+        raise fault("a node line that is not numbers") from None
+    if coordinates.size != 4 * nodes or not np.isfinite(coordinates).all():
+        raise fault("a node line without 3 finite coordinates")
+    triangles, segments = 0, {}
+    for line in element_lines:
+        fields = line.split()
+        if len(fields) < 4:
+            raise fault("an element line cut short")
+        if fields[1] == b"2":
+            triangles += 1
+        elif fields[1] == b"1":
+            tag = int(fields[3])
+            segments[tag] = segments.get(tag, 0) + 1
+    return MeshInfo(nodes, triangles, segments)
+
+
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
     import gmsh
 
@@ -51,33 +126,122 @@ def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
     return digest.hexdigest()[:24]
 
 
+def committed_mesh(source: Path, numbers: dict[str, float], refine: int) -> Path | None:
+    """The committed <geo>-n<n>.msh a body given only by n uses, when there is one."""
+    committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
+    return committed if set(numbers) == {"n"} and refine == 0 and committed.exists() else None
+
+
+def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
+    """What determines a body's mesh before it is made: the committed file's content, or the
+    cache key (sources, numbers, gmsh version). Part of a run's completion key."""
+    committed = committed_mesh(source, numbers, refine)
+    if committed is not None:
+        return "committed:" + hashlib.sha256(committed.read_bytes()).hexdigest()
+    return "generated:" + cache_key(source, numbers, refine)
+
+
 def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None) -> Path:
     """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them), its
-    triangles split in four `refine` times (red refinement: the meshes are nested)."""
-    cache = cache or CACHE
-    committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
-    if set(numbers) == {"n"} and refine == 0 and committed.exists():
+    triangles split in four `refine` times (red refinement: the meshes are nested), read back
+    whole."""
+    committed = committed_mesh(source, numbers, refine)
+    if committed is not None:
+        read_msh(committed)
         return committed
+    cache = cache or CACHE
     target = cache / f"{source.stem}-{cache_key(source, numbers, refine)}.msh"
     if target.exists():
-        return target
+        try:
+            read_msh(target)
+            return target
+        except MeshError:
+            target.unlink(missing_ok=True)  # a damaged entry is rebuilt, never reused
     cache.mkdir(parents=True, exist_ok=True)
+    remove_orphans(cache)
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
-    generate(source, numbers, refine, partial)
-    os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
+    try:
+        generate(source, numbers, refine, partial)
+        read_msh(partial)
+        os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
+    finally:
+        partial.unlink(missing_ok=True)
     return target
+
+
+def remove_orphans(cache: Path) -> None:
+    """Partial files of mesher processes that no longer run (killed while meshing)."""
+    for path in cache.glob("*.partial.msh"):
+        try:
+            pid = int(path.name.split(".")[-4])
+            os.kill(pid, 0)
+        except (ValueError, IndexError, ProcessLookupError):
+            path.unlink(missing_ok=True)
+        except PermissionError:
+            pass  # another user's live process
+
+
+_children: set[subprocess.Popen] = set()
+_children_lock = threading.Lock()
+
+
+def stop_meshing() -> None:
+    """End every gmsh child still running (an interrupted run must not wait for them)."""
+    with _children_lock:
+        for process in list(_children):
+            stop_group(process)
 
 
 def generate(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
     """Mesh in a fresh Python process: gmsh keeps every -setnumber value for the life of the
     process (initialize/finalize do not reset them), so meshing in-process would give a later
-    body the constants of an earlier one that its own scene leaves at their defaults."""
+    body the constants of an earlier one that its own scene leaves at their defaults. The child
+    dies with this process."""
     # gmsh_mesher.py is run as a file, not as a module of this package, so the child imports gmsh
     # and the standard library only (the package's imports would cost it 0.45 s).
     child = Path(__file__).with_name("gmsh_mesher.py")
     command = [sys.executable, str(child), str(source), json.dumps(numbers), str(refine), str(target)]
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=own_group_dying_with_parent)
+    with _children_lock:
+        _children.add(process)
+    try:
+        _, stderr = process.communicate()
+    finally:
+        with _children_lock:
+            _children.discard(process)
+    if process.returncode != 0:
         target.unlink(missing_ok=True)
-        reason = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit code {done.returncode}"
+        lines = stderr.strip().splitlines()
+        reason = lines[-1] if lines else (f"killed by signal {-process.returncode}" if process.returncode < 0
+                                          else f"exit code {process.returncode}")
         raise MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+
+
+def estimated_nodes(source: Path, numbers: dict[str, float], refine: int, cache: Path | None = None) -> int:
+    """Nodes of a mesh before making it: a red refinement multiplies the nodes by about 4, and
+    every project .geo has its size ∝ 1/n, so a mesh at a small n0 scales by (n/n0)²."""
+    n = int(numbers["n"])
+    if refine == 0 and n <= 256:
+        return 0  # small enough to make and count
+    n0 = n if n <= 256 else max(1, n // 2 ** int(np.ceil(np.log2(n / 64))))
+    probe = read_msh(body_mesh(source, {**numbers, "n": n0}, 0, cache))
+    return int(probe.nodes * (n / n0) ** 2 * 4 ** refine)
+
+
+def memory_available() -> int:
+    """Bytes the system can still give (MemAvailable), or 0 when unknown."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
+def estimated_memory(nodes: int, constraints: int, dense_columns: bool) -> int:
+    """FreeFem++'s peak memory for a run on `nodes` mesh nodes with `constraints` contact nodes:
+    per node (BYTES_PER_NODE, measured) plus, for the active-set solver, the dense K⁻¹Cᵀ of both
+    bodies (2 dofs per node, one column per constraint)."""
+    return nodes * BYTES_PER_NODE + (16 * nodes * constraints if dense_columns else 0)

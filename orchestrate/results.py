@@ -10,6 +10,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from orchestrate.manifest import FACTS, MANIFEST, check_files, verify_manifest
+
 PARTS = ("body1", "body2", "contact")
 
 
@@ -71,9 +73,17 @@ def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
 
 
 def load_result(folder: str | Path) -> Result:
+    """A complete run folder: one whose manifest matches every file (a run of orchestrate), or,
+    for a folder FreeFem++ wrote by hand (run.json, no manifest), one whose files all read back
+    whole (orchestrate/manifest.py). Raises FileNotFoundError for a folder that is no run, and
+    IncompleteRun for one that is cut short, unfinished or changed."""
     folder = Path(folder)
-    if not (folder / "history.csv").exists():
-        raise FileNotFoundError(f"{folder} is not a run folder (no history.csv)")
+    if (folder / MANIFEST).is_file():
+        verify_manifest(folder)
+    elif (folder / FACTS).is_file():
+        check_files(folder)
+    else:
+        raise FileNotFoundError(f"{folder} is not a run folder (no manifest.json, no run.json)")
     return Result(folder)
 
 

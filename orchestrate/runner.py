@@ -1,15 +1,25 @@
-"""One run of a scene: mesh, write the FreeFEM scene, run edp/main.edp, render, summarize.
+"""One run of a scene: mesh, write the FreeFEM scene, run edp/main.edp, check, render, summarize.
 
-The run is built in `<out>.partial` and renamed to `<out>` only when complete, so an output
-folder appears whole or not at all. A solver failure leaves `<out>.failed` (with run.log and
-whatever the solver wrote); an interruption (SIGINT, SIGTERM) ends FreeFem++'s process group and
-leaves `<out>.partial` with a file INTERRUPTED saying so.
+Paths. FreeFem++ runs with the run's own folder as its working folder and sees only fixed names
+there: `-DSCENE=scene.idp` (the generated scene), `-out .`, and the meshes copied in as body1.msh
+and body2.msh. No character of a path a user chose reaches FreeFEM's macro preprocessor or its
+source text, so none can change the program it compiles.
+
+Completeness. A run is built in `<out>.partial`, held under an exclusive lock for its whole life
+(a second run into the same `<out>` is refused), and renamed to `<out>` only once every file the
+solver lists has been read back whole and manifest.json (sizes and hashes of every file, and the
+digest of the inputs) is written, last. A failure leaves `<out>.failed` with run.log saying why;
+an interruption (SIGINT, SIGTERM, SIGHUP) ends FreeFem++'s and gmsh's process groups and leaves
+`<out>.partial` with a file INTERRUPTED. `--force` replaces only a run folder, never through a
+symbolic link.
 """
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import json
+import os
 import platform
-import re
 import shutil
 import signal
 import threading
@@ -19,41 +29,45 @@ from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 
-from orchestrate.freefem import MAIN, REPO, SolverError, run_logged
-from orchestrate.mesh import body_mesh
+from orchestrate import mesh as meshing
+from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
+from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, write_manifest
 from orchestrate.results import Result, load_result
-from orchestrate.scene import Scene, to_freefem_scene
+from orchestrate.scene import Scene, SceneError, to_freefem_scene
 
-STEP = re.compile(r"^step (\d+)/(\d+) ")
-SETUP = re.compile(r"^set-up: .*, ([0-9.eE+-]+) s$")
-DONE = re.compile(r"^done: \d+ steps in ([0-9.eE+-]+) s")
-TIMING = re.compile(r"^timing: setup (\S+) loop (\S+) output (\S+) backsubs-per-step (\S+)")
+NAME_MAX = 255  # bytes in one path component on Linux file systems
+SUFFIXES = (".partial", ".failed", ".replaced")
 
 
 class RunError(RuntimeError):
-    """A run that could not start (its folder exists) or was interrupted."""
+    """A run that could not start (its folder exists or is taken) or could not be written."""
 
 
 class Interrupted(RunError):
     pass
 
 
+class TooLarge(RunError):
+    """A run whose meshes or memory would not fit this machine, refused before it starts."""
+
+
 @contextmanager
-def sigterm_as_interrupt():
-    """Turn SIGTERM into an exception while a run is in progress (main thread only), so the
-    FreeFem++ process group is ended and the partial folder marked, as for Ctrl-C."""
+def signals_as_interrupt():
+    """Turn SIGTERM and SIGHUP into an exception while a run is in progress (main thread only),
+    so the child processes are ended and the partial folder marked, as for Ctrl-C."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
-        raise Interrupted(f"interrupted by signal {signum}")
+        raise Interrupted(f"interrupted by signal {signal.Signals(signum).name}")
 
-    previous = signal.signal(signal.SIGTERM, handler)
+    previous = {number: signal.signal(number, handler) for number in (signal.SIGTERM, signal.SIGHUP)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for number, action in previous.items():
+            signal.signal(number, action)
 
 
 def package_versions() -> dict[str, str]:
@@ -70,6 +84,81 @@ def default_folder(scene_path: Path | None) -> Path:
     return REPO / "results" / (scene_path.stem if scene_path else "run")
 
 
+def output_folder(out: str | Path) -> Path:
+    """The absolute output folder, its parent's symbolic links resolved but never its own; refused
+    with the reason when its name cannot hold a run (control characters, not UTF-8, too long)."""
+    require_plain_path(Path(out), "--out")
+    path = Path(os.path.abspath(out))
+    if path.name in ("", ".", ".."):
+        raise InputError(f"--out {str(out)!r} names no folder: give a folder name, e.g. --out results/run")
+    longest = max(len(suffix) for suffix in SUFFIXES)
+    if len(path.name.encode()) + longest > NAME_MAX:
+        raise InputError(f"--out: the folder name is {len(path.name.encode())} bytes long; at most "
+                         f"{NAME_MAX - longest} are allowed (a file name holds {NAME_MAX} and the run adds '.replaced')")
+    return path.parent.resolve() / path.name
+
+
+def is_run_folder(path: Path) -> bool:
+    """A folder a run wrote (what --force may replace), or an empty one."""
+    return path.is_dir() and not path.is_symlink() and (
+        not any(path.iterdir()) or any((path / name).is_file() for name in (MANIFEST, FACTS, "params_used.json")))
+
+
+def refuse_existing(out: Path, force: bool) -> None:
+    if not os.path.lexists(out):
+        return
+    if out.is_symlink():
+        raise RunError(f"{out} is a symbolic link: give the folder itself (a run never deletes through a link)")
+    if not force:
+        raise RunError(f"{out} exists: choose another --out or pass --force to replace it")
+    if not is_run_folder(out):
+        raise RunError(f"{out} exists and is not a run folder (no manifest.json or run.json): --force replaces only "
+                       "the folders of runs; choose another --out")
+
+
+@contextmanager
+def claimed(out: Path):
+    """`<out>.partial`, emptied and held under an exclusive lock until the block ends."""
+    partial = out.with_name(out.name + ".partial")
+    if partial.is_symlink() or (os.path.lexists(partial) and not partial.is_dir()):
+        raise RunError(f"{partial} exists and is not a run's folder (a file or a link): remove it or choose another --out")
+    partial.mkdir(parents=True, exist_ok=True)
+    handle = os.open(partial, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise RunError(f"another run is writing {out} (it holds {partial}): wait for it or choose another --out") \
+                from None
+        if os.fstat(handle).st_ino != os.stat(partial, follow_symlinks=False).st_ino:
+            raise RunError(f"{partial} was replaced while this run claimed it: another run is writing {out}")
+        for path in partial.iterdir():  # what an earlier, crashed run left
+            shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+        yield partial
+    finally:
+        os.close(handle)
+
+
+def solver_sources_digest() -> str:
+    """The solver's FreeFEM sources (driver, libraries, default scene)."""
+    sha = hashlib.sha256()
+    for path in sorted([MAIN, *(REPO / "edp" / "lib").glob("*.idp"), *(REPO / "edp" / "scenes").glob("*.idp")]):
+        sha.update(path.relative_to(REPO).as_posix().encode() + b"\0" + path.read_bytes())
+    return sha.hexdigest()
+
+
+def inputs_of(scene: Scene) -> dict:
+    """Everything a run's result depends on: the scene as validated, the solver's sources and what
+    determines each body's mesh (committed file content, or .geo sources, numbers and gmsh
+    version). A run folder whose manifest holds the same digest is the same run."""
+    parts = {"scene": hashlib.sha256(json.dumps(scene.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
+             "solver": solver_sources_digest(),
+             "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine)
+                        for body in (scene.body1, scene.body2)]}
+    parts["digest"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
+    return parts
+
+
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
         force: bool = False, progress: bool = False, mesh_cache: Path | None = None,
         solver_flags: tuple = ()) -> Result:
@@ -78,56 +167,137 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     extra driver flags that change no result (e.g. -measureSolves 10)."""
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
-    out = (Path(out) if out else default_folder(scene_path)).resolve()  # FreeFem++ runs in the repository
-    if out.exists() and not force:
-        raise RunError(f"{out} exists: choose another --out or pass --force to replace it")
-    partial, failed = out.with_name(out.name + ".partial"), out.with_name(out.name + ".failed")
-    shutil.rmtree(partial, ignore_errors=True)
-    partial.mkdir(parents=True)
+    require_plain_path(REPO, "the repository's location")
+    freefem_binary()  # its absence is said before anything is written
+    out = output_folder(out or default_folder(scene_path))
+    refuse_existing(out, force)
+    inputs = inputs_of(scene)
+    failed = out.with_name(out.name + ".failed")
     started = time.perf_counter()
-    try:
-        with sigterm_as_interrupt():
-            summary = build(scene, partial, progress, mesh_cache, solver_flags)
-    except (KeyboardInterrupt, Interrupted) as error:
-        reason = str(error) or "Ctrl-C"
-        (partial / "INTERRUPTED").write_text(f"This run was interrupted ({reason}); its files are incomplete.\n")
-        raise Interrupted(f"run interrupted; the incomplete files are in {partial}") from None
-    except SolverError:
-        shutil.rmtree(failed, ignore_errors=True)
-        partial.rename(failed)
-        raise
-    except FileNotFoundError:  # FreeFem++ itself missing: its own message says how to install it
-        raise
-    except OSError as error:  # a full disk, a folder that cannot be written: keep what exists
-        raise RunError(f"cannot write the run ({error.strerror}: {error.filename}); is the disk full? "
-                       f"The files written so far are in {partial}") from None
-    summary["wallSeconds"] = round(time.perf_counter() - started, 3)
-    (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    shutil.rmtree(failed, ignore_errors=True)
-    if out.exists():
+    with claimed(out) as partial:
+        try:
+            refuse_existing(out, force)  # again, now that no other run can take the folder
+        except RunError:
+            partial.rmdir()
+            raise
+        try:
+            with signals_as_interrupt():
+                summary = build(scene, partial, progress, mesh_cache, solver_flags)
+                summary["wallSeconds"] = round(time.perf_counter() - started, 3)
+                (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+                write_manifest(partial, inputs)
+        except (KeyboardInterrupt, Interrupted) as error:
+            meshing.stop_meshing()
+            reason = str(error) or "Ctrl-C"
+            (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
+            raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
+        except (SolverError, meshing.MeshError, SceneError, TooLarge, IncompleteRun) as error:
+            with open(partial / "run.log", "a") as log:
+                log.write(f"\nERROR: {error}\n")
+            retire(failed)
+            partial.rename(failed)
+            raise
+        except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
+            raise RunError(f"cannot write the run ({error.strerror}: {error.filename}); is the disk full? "
+                           f"The files written so far are in {partial}") from None
+        retire(failed)
+        publish(partial, out)
+    return load_result(out)
+
+
+def retire(folder: Path) -> None:
+    if folder.is_dir() and not folder.is_symlink():
+        shutil.rmtree(folder)
+
+
+def publish(partial: Path, out: Path) -> None:
+    """Rename the complete run to `out`, replacing the run folder there (checked before)."""
+    if os.path.lexists(out):
         retired = out.with_name(out.name + ".replaced")
-        shutil.rmtree(retired, ignore_errors=True)
+        retire(retired)
         out.rename(retired)
         partial.rename(out)
         shutil.rmtree(retired)
     else:
         partial.rename(out)
-    return load_result(out)
 
 
-def require_complete(folder: Path, steps: int) -> None:
-    """FreeFEM's streams report no write error: a run that exited 0 must still have written a
-    history row per step, with every column, and every file its solution.pvd lists."""
-    lines = (folder / "history.csv").read_text().splitlines() if (folder / "history.csv").exists() else []
-    columns = lines[0].count(",") if lines else -1
-    complete = len(lines) == steps + 1 and all(line.count(",") == columns for line in lines)
-    if complete and (folder / "solution.pvd").exists():
-        listed = re.findall(r'file="([^"]+)"', (folder / "solution.pvd").read_text())
-        complete = all((folder / name).stat().st_size > 0 for name in listed if (folder / name).exists()) \
-            and all((folder / name).exists() for name in listed)
-    if not complete:
-        raise OSError(28, f"FreeFem++ finished but wrote {max(len(lines) - 1, 0)} of {steps} history rows or "
-                          f"an empty .vtu file", str(folder))
+def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshing.MeshInfo]:
+    """Both bodies meshed at once (each in a gmsh process of its own), copied into the run folder as
+    body1.msh and body2.msh after their labels and size are checked against the scene."""
+    bodies = (scene.body1, scene.body2)
+    free = meshing.memory_available()
+    nodes = sum(meshing.estimated_nodes(b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache) for b in bodies)
+    if free and nodes * meshing.BYTES_PER_NODE > free:
+        raise TooLarge(f"the meshes would have about {nodes:,} nodes; a run on them needs about "
+                          f"{nodes * meshing.BYTES_PER_NODE / 2**30:.1f} GiB and {free / 2**30:.1f} GiB are free: "
+                          "lower mesh.n or mesh.refine")
+    pool = ThreadPoolExecutor(2)
+    try:
+        paths = list(pool.map(lambda b: meshing.body_mesh(b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache),
+                              bodies))
+    except BaseException:
+        meshing.stop_meshing()
+        raise
+    finally:
+        pool.shutdown(wait=True)
+    infos = []
+    for index, (body, path) in enumerate(zip(bodies, paths), 1):
+        target = folder / f"body{index}.msh"
+        shutil.copyfile(path, target)
+        info = meshing.read_msh(target)
+        require_labels(body, index, info)
+        infos.append(info)
+    constraints = infos[0].segments.get(scene.body1.mesh.contact_label, 0) + 1
+    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, scene.solver.contact == "pdas")
+    if free and need > free:
+        raise TooLarge(f"this run needs about {need / 2**30:.1f} GiB ({infos[0].nodes + infos[1].nodes:,} nodes, "
+                          f"{constraints} contact nodes{', dense K⁻¹Cᵀ for the active-set solver' if scene.solver.contact == 'pdas' else ''}) "
+                          f"and {free / 2**30:.1f} GiB are free: lower mesh.n or mesh.refine"
+                          + (", or use solver.contact = \"bm\"" if scene.solver.contact == "pdas" else ""))
+    return infos
+
+
+def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
+    """Every label the scene names must be a boundary label of the body's mesh: a condition on a
+    missing label acts on nothing and the run would silently be another problem."""
+    named = [(f"body{index}.mesh.contact_label", body.mesh.contact_label)]
+    named += [(f"body{index}.boundary.{j}.label", condition.label) for j, condition in enumerate(body.boundary)]
+    for key, label in named:
+        if label not in info.segments:
+            raise SceneError(f"{key} = {label}: body {index}'s mesh has no boundary label {label} "
+                             f"(its labels: {', '.join(map(str, sorted(info.segments)))})")
+
+
+def follow_history(path: Path, bar, done: threading.Event) -> None:
+    """Advance the progress bar with the rows history.csv gains (the run writes one per step)."""
+    rows = -1
+    while not done.wait(0.25):
+        try:
+            with open(path, "rb") as handle:
+                now = handle.read().count(b"\n") - 1
+        except FileNotFoundError:
+            continue
+        if now > rows:
+            bar.update(now - max(rows, 0))
+            rows = now
+
+
+def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple):
+    """FreeFem++ on the run folder, with a progress bar fed by history.csv."""
+    bar, done, watcher = None, threading.Event(), None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=scene.time.N, unit="step", desc=folder.name.removesuffix(".partial"), leave=False)
+        watcher = threading.Thread(target=follow_history, args=(folder / "history.csv", bar, done), daemon=True)
+        watcher.start()
+    try:
+        return run_logged(MAIN, ["-out", ".", *solver_flags], folder / "run.log", folder, defines={"SCENE": "scene.idp"})
+    finally:
+        done.set()
+        if watcher is not None:
+            watcher.join()
+            bar.close()
 
 
 def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = ()) -> dict:
@@ -135,53 +305,28 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
-    with ThreadPoolExecutor(2) as pool:  # each body is meshed in a process of its own: two at once
-        meshes = list(pool.map(lambda body: body_mesh(body.mesh.source(), body.mesh.numbers(), body.mesh.refine,
-                                                      mesh_cache), (scene.body1, scene.body2)))
+    meshes_of(scene, folder, mesh_cache)
     timing["meshing"] = time.perf_counter() - clock
-    scene_file = folder / "scene.idp"
-    scene_file.write_text(to_freefem_scene(scene, *meshes))
+    (folder / "scene.idp").write_text(to_freefem_scene(scene))
 
     clock = time.perf_counter()
-    solver_cpu = {}
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=scene.time.N, unit="step", desc=folder.name.removesuffix(".partial"), leave=False)
-
-    def on_line(line: str) -> None:
-        if (match := STEP.match(line)) and bar is not None:
-            bar.update(int(match.group(1)) - bar.n)
-        elif match := SETUP.match(line):
-            solver_cpu["setup"] = float(match.group(1))
-        elif match := DONE.match(line):
-            solver_cpu["total"] = float(match.group(1))
-        elif match := TIMING.match(line):
-            solver_cpu.update(zip(("setupCpu", "loopCpu", "outputCpu", "backsubsPerStep"), map(float, match.groups())))
-
-    try:
-        done = run_logged(MAIN, ["-out", folder, *solver_flags], folder / "run.log", on_line,
-                          defines={"SCENE": scene_file})
-    finally:
-        if bar is not None:
-            bar.close()
+    done = solve(scene, folder, progress, solver_flags)
     timing["solver"] = time.perf_counter() - clock
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
         raise SolverError(done.returncode, done.error_line, tail)
+    check_files(folder)
+    run_facts = facts(folder)
 
-    require_complete(folder, scene.time.N)
     result = Result(folder)
     clock = time.perf_counter()
     if scene.output.images and result.outputs:
         from orchestrate.render import render_all
         render_all(result, folder)
     timing["images"] = time.perf_counter() - clock
-    timing["solverSetupCpu"] = solver_cpu.get("setupCpu")
-    timing["solverLoopCpu"] = solver_cpu.get("loopCpu")
-    timing["solverOutputCpu"] = solver_cpu.get("outputCpu")
-    timing["solverTotalCpu"] = solver_cpu.get("total")
-    timing["backsubsPerStep"] = solver_cpu.get("backsubsPerStep")
+    timing.update({"solverSetupCpu": run_facts.get("setupSeconds"), "solverLoopCpu": run_facts.get("loopSeconds"),
+                   "solverOutputCpu": run_facts.get("outputSeconds"), "solverTotalCpu": run_facts.get("totalSeconds"),
+                   "backsubsPerStep": run_facts.get("backsubSecondsPerStep")})
     final = {name: float(values[-1]) for name, values in result.history.items()}
     return {
         "title": scene.title,

@@ -52,19 +52,27 @@ def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, spac
 
 
 def distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
-    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants."""
-    first, second = load_result(run).params, load_result(reference).params
-    with tempfile.TemporaryDirectory() as folder:
-        pairs, table = Path(folder) / "pairs.txt", Path(folder) / "errors.csv"
-        lines = [f"{run}/state_{j * run_steps // instants:04d}.txt {reference}/state_{j * reference_steps // instants:04d}.txt"
-                 for j in range(1, instants + 1)]
-        pairs.write_text(f"{len(lines)}\n" + "\n".join(lines) + "\n")
+    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants.
+    The tool reads file names from its pairs file as words, so it runs in a scratch folder that
+    links every file it needs under a plain name."""
+    load_result(run), load_result(reference)
+    with tempfile.TemporaryDirectory() as scratch:
+        scratch = Path(scratch)
+        for side, folder in (("run", run), ("ref", reference)):
+            for body in (1, 2):
+                (scratch / f"{side}{body}.msh").symlink_to(folder / f"body{body}.msh")
+        lines = []
+        for j in range(1, instants + 1):
+            for side, folder, steps in (("run", run, run_steps), ("ref", reference, reference_steps)):
+                (scratch / f"{side}_{j:04d}.txt").symlink_to(folder / f"state_{j * steps // instants:04d}.txt")
+            lines.append(f"run_{j:04d}.txt ref_{j:04d}.txt")
+        (scratch / "pairs.txt").write_text(f"{len(lines)}\n" + "\n".join(lines) + "\n")
         done = run_script(REPO / "edp" / "tools" / "errors.edp",
-                          ["-mesh1", first["meshFile1"], "-mesh2", first["meshFile2"], "-refMesh1", second["meshFile1"],
-                           "-refMesh2", second["meshFile2"], "-pairs", pairs, "-out", table])
+                          ["-mesh1", "run1.msh", "-mesh2", "run2.msh", "-refMesh1", "ref1.msh", "-refMesh2", "ref2.msh",
+                           "-pairs", "pairs.txt", "-out", "errors.csv"], cwd=scratch)
         if done.returncode != 0:
             raise RuntimeError(f"errors.edp failed for {run} against {reference}: {done.error_line}")
-        with open(table) as handle:
+        with open(scratch / "errors.csv") as handle:
             return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(handle)]
 
 

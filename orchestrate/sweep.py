@@ -1,10 +1,12 @@
 """Parameter sweeps: the cartesian product of scene overrides, one run folder each, on
 dask.distributed (a LocalCluster by default, an existing cluster given its scheduler address).
 
-A failed run is recorded with its error and the others go on. A run whose folder holds a
-complete run of the same inputs (scene after overrides, solver sources, mesh sources) is not run
-again, so an interrupted sweep started again runs only what is missing. `sweep.csv` has a row
-per run: its parameters, status, error, final-time figures and wall time.
+Each combination has its own folder: a readable prefix of its values and a hash of the whole
+combination, so two combinations never share one. A failed run is recorded with its error and the
+others go on. A folder is skipped only when its manifest is whole and records the same inputs
+(scene after overrides, solver sources, what determines the meshes: runner.inputs_of), so an
+interrupted sweep started again runs only what is missing, and an edited input runs again.
+`sweep.csv` has a row per run, written even when the sweep is interrupted.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import logging
 import re
 from pathlib import Path
 
-from orchestrate.freefem import REPO
+from orchestrate.manifest import IncompleteRun, verify_manifest
 from orchestrate.scene import Scene, SceneError, parse_value
 
 FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
@@ -30,41 +32,39 @@ def parse_grid(items: list[str]) -> dict[str, list]:
         key, separator, values = item.partition("=")
         if not separator or not key.strip() or not values.strip():
             raise SceneError(f"--grid {item!r}: expected key=value1,value2,... e.g. --grid time.N=20,40")
+        if key.strip() in grid:
+            raise SceneError(f"--grid {key.strip()} is given twice: list all its values in one --grid")
         grid[key.strip()] = [parse_value(value.strip()) for value in values.split(",")]
     return grid
 
 
+def require_distinct(grid: dict[str, list]) -> None:
+    """A value listed twice would be the same run twice in one folder: refused."""
+    for key, values in grid.items():
+        if not values:
+            raise SceneError(f"--grid {key}: no values")
+        for index, value in enumerate(values):
+            if any(type(value) is type(other) and value == other for other in values[:index]):
+                raise SceneError(f"--grid {key}: the value {value!r} is listed twice")
+
+
 def folder_name(assignment: dict) -> str:
-    """A folder name from the parameters of a run; only [A-Za-z0-9._=+-] survive (no paths)."""
-    name = "__".join(f"{key}={value}" for key, value in assignment.items()) or "base"
-    return re.sub(r"[^A-Za-z0-9._=+-]", "_", name)[:200].lstrip(".")
+    """A folder name unique to the combination: its values, only [A-Za-z0-9._=+-] kept and cut to
+    a readable length, then 10 hex digits of the combination's hash (no paths, no dot first)."""
+    readable = "__".join(f"{key}={value}" for key, value in assignment.items()) or "base"
+    readable = re.sub(r"[^A-Za-z0-9._=+-]", "_", readable)[:100].lstrip(".") or "run"
+    key = hashlib.sha256(json.dumps(list(assignment.items()), sort_keys=False).encode()).hexdigest()[:10]
+    return f"{readable}-{key}"
 
 
-def source_digest() -> str:
-    """The solver's FreeFEM sources (driver, libraries) and the mesh sources: a change reruns
-    every run. Tools such as edp/tools/errors.edp do not change a run."""
-    digest = hashlib.sha256()
-    solver = [REPO / "edp" / "main.edp", *(REPO / "edp" / "lib").glob("*.idp")]
-    for path in sorted([*solver, *(REPO / "meshes").glob("*.geo")]):
-        digest.update(path.relative_to(REPO).as_posix().encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()
-
-
-def inputs_digest(scene: Scene, sources: str) -> str:
-    text = json.dumps(scene.model_dump(mode="json"), sort_keys=True) + sources
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def run_one(scene_data: dict, folder: str, digest: str) -> dict:
+def run_one(scene_data: dict, folder: str) -> dict:
     """Task of a worker: one run, never raising (its failure is a row of sweep.csv)."""
     from orchestrate.runner import run
 
     try:
-        result = run(Scene.model_validate(scene_data), folder, force=True)
+        run(Scene.model_validate(scene_data), folder, force=True)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
-    (Path(folder) / "inputs.sha256").write_text(digest + "\n")
     return row_of(Path(folder), "completed")
 
 
@@ -76,8 +76,13 @@ def row_of(folder: Path, status: str) -> dict:
 
 
 def completed_before(folder: Path, digest: str) -> bool:
-    marker = folder / "inputs.sha256"
-    return marker.exists() and (folder / "summary.json").exists() and marker.read_text().strip() == digest
+    """The folder holds a whole run of exactly these inputs."""
+    if not (folder / "manifest.json").is_file() or folder.is_symlink():
+        return False
+    try:
+        return verify_manifest(folder).get("inputs", {}).get("digest") == digest
+    except IncompleteRun:
+        return False
 
 
 def make_client(workers: int, scheduler: str | None):
@@ -93,7 +98,8 @@ def make_client(workers: int, scheduler: str | None):
 def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | None = None) -> tuple[list, list]:
     """Rows for runs of the scene with each assignment of overrides (on top of `base`), in folders
     of `out` named by the assignment, and the jobs among them still to run."""
-    sources = source_digest()
+    from orchestrate.runner import inputs_of
+
     rows, jobs = [], []
     for assignment in assignments:
         row = {**assignment, "folder": folder_name(assignment)}
@@ -101,46 +107,61 @@ def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | Non
         try:
             resolved = Scene.load(scene, {**(base or {}), **assignment})
         except SceneError as error:
-            row.update(status="invalid", error=" | ".join(str(error).splitlines()[1:]))
+            row.update(status="invalid", error=" | ".join(str(error).splitlines()[1:]) or str(error))
             continue
         folder = out / row["folder"]
-        digest = inputs_digest(resolved, sources)
-        if completed_before(folder, digest):
+        if completed_before(folder, inputs_of(resolved)["digest"]):
             row.update(row_of(folder, "skipped (complete)"))
         else:
-            jobs.append((row, resolved.model_dump(mode="json"), str(folder), digest))
+            jobs.append((row, resolved.model_dump(mode="json"), str(folder)))
     return rows, jobs
 
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
           workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → values) over the scene with `base`
-    overrides; returns the rows of sweep.csv (written in `out`)."""
+    overrides; returns the rows of sweep.csv (written in `out`, also when interrupted)."""
+    require_distinct(grid)
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     keys = list(grid)
     assignments = [dict(zip(keys, values)) for values in itertools.product(*(grid[key] for key in keys))]
     rows, jobs = plan(scene, assignments, out, base)
-    run_jobs(jobs, workers, scheduler, progress)
-    write_table(out / "sweep.csv", rows, keys)
+    try:
+        run_jobs(jobs, workers, scheduler, progress)
+    finally:
+        write_table(out / "sweep.csv", rows, keys)
     return rows
+
+
+def mark_interrupted(jobs) -> None:
+    """Rows and partial folders of the jobs an interruption stopped: the workers that held them
+    were ended with their cluster, before they could say so themselves."""
+    for row, _, folder in jobs:
+        if "status" in row:
+            continue
+        row.update(status="interrupted", error="the sweep was interrupted before this run finished")
+        partial = Path(folder + ".partial")
+        if partial.is_dir() and not partial.is_symlink():
+            (partial / "INTERRUPTED").write_text("This run was interrupted with its sweep; its files are incomplete.\n")
 
 
 def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
     """Run the jobs of `plan` on dask.distributed; each row gets its status and figures.
-    An interruption (SIGINT, SIGTERM) closes the cluster: its workers end, and their FreeFem++
-    children with them (freefem.py); the same sweep started again runs what did not finish."""
+    An interruption (SIGINT, SIGTERM, SIGHUP) closes the cluster: its workers end, and their
+    FreeFem++ children with them (freefem.py); the same sweep started again runs what did not
+    finish."""
     if not jobs:
         return
     from dask.distributed import as_completed
 
-    from orchestrate.runner import sigterm_as_interrupt
+    from orchestrate.runner import signals_as_interrupt
 
     client = make_client(workers, scheduler)
+    interrupted = False
     try:
-        with sigterm_as_interrupt():
-            futures = {client.submit(run_one, data, folder, digest, pure=False): row
-                       for row, data, folder, digest in jobs}
+        with signals_as_interrupt():
+            futures = {client.submit(run_one, data, folder, pure=False): row for row, data, folder in jobs}
             bar = None
             if progress:
                 from tqdm import tqdm
@@ -151,11 +172,16 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
                     bar.update(1)
             if bar is not None:
                 bar.close()
+    except BaseException:
+        interrupted = True
+        raise
     finally:
         cluster = client.cluster
         client.close()
         if cluster is not None:
             cluster.close()
+        if interrupted and cluster is not None:  # its workers are gone: nothing writes those folders any more
+            mark_interrupted(jobs)
 
 
 def write_table(path: Path, rows: list[dict], keys: list[str]) -> None:

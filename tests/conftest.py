@@ -23,9 +23,12 @@ def gmsh_mesh(geo: str | Path, target: Path, **numbers: float) -> Path:
 
 
 def solve(out: Path, *args, scene: Path | None = None) -> tuple[Completed, Result]:
-    """Run edp/main.edp into `out` and return the completed process and its result folder."""
-    defines = {"SCENE": str(scene)} if scene else None
-    done = run_script(REPO / "edp" / "main.edp", [*map(str, args), "-out", str(out)], defines=defines)
+    """Run edp/main.edp into `out` and return the completed process and its result folder. A scene
+    file is passed by its bare name from its own folder (a path in -DSCENE goes through FreeFEM's
+    macro reader, which cuts it at '#')."""
+    defines = {"SCENE": scene.name} if scene else None
+    done = run_script(REPO / "edp" / "main.edp", [*map(str, args), "-out", str(out)], defines=defines,
+                      cwd=scene.parent if scene else None)
     return done, Result(out)
 
 

@@ -15,6 +15,7 @@ from conftest import SCENES, gmsh_mesh, solve
 from orchestrate import Scene, SceneError, SolverError, load_result, run
 from orchestrate import runner as runner_module
 from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.manifest import IncompleteRun
 from orchestrate.scene import to_freefem_scene
 from orchestrate.sweep import folder_name
 
@@ -72,15 +73,17 @@ def test_injection_attempts_are_refused_before_freefem_starts(tmp_path, no_freef
 
 
 GENERATED_LINE = re.compile(
-    r'// .*|setParam\("[A-Za-z0-9]+", (-?[0-9][0-9.e+-]*|"[A-Za-z0-9_.,/+-]*")\);'
-    r'|macro (dirichlet|loads)[12]\((ux, uy|vx, vy)\) [A-Za-z0-9_ .,+\-*/^()=<>?:!]* //')
+    r'// .*|setParam\("[A-Za-z0-9]+", (-?[0-9][0-9.e+-]*|"[A-Za-z0-9_.,+-]*")\);'
+    r'|macro (dirichlet|loads)[12]\((ux, uy|vx, vy)\) [A-Za-z0-9_ .,+\-*/^()=<>?:!]* //'
+    r'|macro boundaryLabels[12] [0-9]+(, [0-9]+)* //')
 
 
 def test_the_generated_freefem_scene_holds_only_data_and_whitelisted_expressions():
     scene = Scene.load(PAPER_TOML, {"body1.boundary.1.fy": "-10*t*(x <= 3) + sin(y)^2/max(t, 1e-3)"})
-    text = to_freefem_scene(scene, REPO / "meshes" / "a.msh", REPO / "meshes" / "b.msh")
+    text = to_freefem_scene(scene)
     for line in text.splitlines():
         assert GENERATED_LINE.fullmatch(line), line
+    assert 'setParam("mesh1", "body1.msh");' in text  # no path: the run's folder holds its meshes
 
 
 def test_sweep_folder_names_cannot_leave_the_sweep_folder():
@@ -222,20 +225,53 @@ def test_missing_gmsh_gives_an_install_hint(tmp_path):
     assert done.returncode == 3 and "gmsh is not installed" in output and "make setup" in output
 
 
-def test_a_full_disk_gives_a_clear_message_and_keeps_what_was_written(tmp_path):
-    # RLIMIT_FSIZE makes writes beyond 40 kB fail as on a full disk (SIGXFSZ ignored: EFBIG), for
-    # the runner and the FreeFem++ it starts.
-    def limited():
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (40_000, 40_000))
+def limited_file_size(ignore_sigxfsz: bool):
+    """A preexec function: writes beyond 150 kB fail, as on a nearly full disk (the committed
+    meshes fit; body 2's .vtu of the default scene, 218 kB, does not)."""
+    def limit():
+        if ignore_sigxfsz:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (150_000, 150_000))
+    return limit
+
+
+def test_a_file_size_limit_stops_the_run_with_a_clear_message_and_keeps_what_was_written(tmp_path):
+    # Python ignores SIGXFSZ; the runner gives FreeFem++ the default action back, so the limit
+    # stops it instead of letting its writes fail silently.
     out = tmp_path / "run"
-    done = subprocess.run([sys.executable, "-m", "orchestrate", "run", str(PAPER_TOML), "--set", "time.N=400",
-                           "--set", "time.T=10", "--set", "output.images=false", "--out", str(out)],
-                          cwd=REPO, capture_output=True, text=True, preexec_fn=limited)
-    assert done.returncode != 0 and "disk full" in done.stderr
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "run", str(PAPER_TOML), "--set", "time.N=1000",
+                           "--set", "time.T=25", "--set", "output.images=false", "--out", str(out)],
+                          cwd=REPO, capture_output=True, text=True, preexec_fn=limited_file_size(True))
+    assert done.returncode != 0 and "file-size limit" in done.stderr, done.stderr
     assert not out.exists()
-    rows = (tmp_path / "run.partial" / "history.csv").read_text().splitlines()
-    assert 10 < len(rows) < 400  # what was written before stays
+    rows = (tmp_path / "run.failed" / "history.csv").read_text().splitlines()
+    assert 10 < len(rows) < 1000  # what was written before stays
+
+
+def test_files_cut_short_without_an_error_are_never_taken_as_a_run(tmp_path):
+    # FreeFem++ run by hand with SIGXFSZ ignored: its writes fail silently and it exits 0.
+    out = tmp_path / "hand"
+    done = subprocess.run(["bin/ff", str(MAIN), "-out", str(out)], cwd=REPO,
+                          capture_output=True, text=True, preexec_fn=limited_file_size(True))
+    assert done.returncode == 0 and (out / "run.json").exists()
+    with pytest.raises(IncompleteRun, match="cut short|cannot be read back"):
+        load_result(out)
+    rendered = cli("render", out)
+    assert rendered.returncode != 0 and "cut short" in rendered.stderr and not (out / "fields.png").exists()
+
+
+def test_a_run_whose_files_are_cut_short_is_not_published(tmp_path, monkeypatch):
+    real = runner_module.run_logged
+
+    def then_truncate(script, args, log, cwd, defines=None):
+        done = real(script, args, log, cwd, defines)
+        vtu = cwd / "body2_0020.vtu"
+        vtu.write_bytes(vtu.read_bytes()[:5000])  # what a full disk leaves
+        return done
+    monkeypatch.setattr(runner_module, "run_logged", then_truncate)
+    with pytest.raises(IncompleteRun, match="body2_0020.vtu"):
+        run(PAPER_TOML, tmp_path / "run", COARSE)
+    assert not (tmp_path / "run").exists() and "body2_0020.vtu" in (tmp_path / "run.failed" / "run.log").read_text()
 
 
 # --- determinism --------------------------------------------------------------------------------

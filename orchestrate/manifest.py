@@ -1,0 +1,165 @@
+"""When a run folder is complete, and proof that it still is.
+
+FreeFEM's streams report no write error: on a full disk or past a file-size limit a run can exit 0
+with files cut short. So a run is complete only when every file it lists in run.json (written as
+its last act) has been read back whole: history.csv with a row per step, every .vtu parsed with
+the node and triangle counts the run reported, every state file with its arrays' lengths, the
+.pvd naming only files of the run. Then `manifest.json`, written last and atomically, records the
+size and SHA-256 of every file in the folder and the digest of the run's inputs. `load_result`,
+`render` and `sweep` trust a folder only through it; a folder FreeFem++ wrote by hand (run.json,
+no manifest) is checked file by file each time it is loaded.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+
+import numpy as np
+
+MANIFEST = "manifest.json"
+FACTS = "run.json"
+PARTS = ("body1", "body2", "contact")
+BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
+
+
+class IncompleteRun(RuntimeError):
+    """A run folder whose files are missing, cut short or changed since the run finished (a full
+    disk or a file-size limit cuts files short without FreeFEM noticing)."""
+
+
+def read_json(path: Path) -> dict:
+    try:
+        return json.loads(path.read_bytes())
+    except FileNotFoundError:
+        raise IncompleteRun(f"{path.parent}: no {path.name}") from None
+    except (ValueError, UnicodeDecodeError) as error:
+        raise IncompleteRun(f"{path}: not valid JSON ({error}); the file is cut short or damaged") from None
+
+
+def facts(folder: Path) -> dict:
+    """run.json of a run folder: what the run established, and the files it wrote."""
+    data = read_json(Path(folder) / FACTS)
+    if data.get("finished") is not True:
+        raise IncompleteRun(f"{folder}: the run did not finish (run.json says finished = {data.get('finished')})")
+    return data
+
+
+def check_files(folder: Path) -> dict:
+    """Read back every file the run lists; raise IncompleteRun naming the first that is not whole.
+    Returns the run's facts."""
+    folder = Path(folder)
+    run = facts(folder)
+    files = run.get("files", [])
+    for name in files:
+        if Path(name).name != name or not (folder / name).is_file():
+            raise IncompleteRun(f"{folder}: the run lists {name!r}, which is not a file of the folder")
+    params = read_json(folder / "params_used.json")
+    _check_history(folder / "history.csv", int(params["N"]))
+    for name in files:
+        path = folder / name
+        if name.endswith(".vtu"):
+            _check_vtu(path, run)
+        elif name.startswith("state_"):
+            _check_state(path, run)
+        elif name.endswith(".pvd"):
+            _check_pvd(path, files)
+    return run
+
+
+def _check_history(path: Path, steps: int) -> None:
+    lines = path.read_bytes().split(b"\n")
+    if lines and lines[-1] == b"":
+        lines.pop()
+    columns = lines[0].count(b",") if lines else -1
+    if len(lines) != steps + 1 or any(line.count(b",") != columns for line in lines):
+        raise IncompleteRun(f"{path}: {max(len(lines) - 1, 0)} rows of {steps} steps, or a row cut short")
+    try:
+        np.array(b",".join(lines[1:]).split(b","), dtype=float)
+    except ValueError:
+        raise IncompleteRun(f"{path}: a value that is not a number (the file is damaged)") from None
+
+
+def _check_vtu(path: Path, run: dict) -> None:
+    import meshio
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):  # meshio prints its own complaint first
+            mesh = meshio.read(path)
+    except (Exception, SystemExit) as error:  # meshio raises what its parser meets, and exits on some files
+        raise IncompleteRun(f"{path}: cannot be read back ({type(error).__name__}: {error}); cut short?") from None
+    part = path.name.rsplit("_", 1)[0]
+    if part in ("body1", "body2"):
+        body = part[-1]
+        triangles = len(mesh.cells_dict.get("triangle", []))
+        expected = (run[f"nodes{body}"], run[f"triangles{body}"])
+        missing = [name for name in BODY_ARRAYS if name not in mesh.point_data]
+        if (len(mesh.points), triangles) != expected or missing:
+            raise IncompleteRun(f"{path}: {len(mesh.points)} points and {triangles} triangles (expected {expected[0]} "
+                                f"and {expected[1]}){', no ' + ', '.join(missing) if missing else ''}")
+    elif part == "contact" and len(mesh.points) != run["traceNodes1"]:
+        raise IncompleteRun(f"{path}: {len(mesh.points)} points, expected {run['traceNodes1']}")
+
+
+def _check_state(path: Path, run: dict) -> None:
+    from orchestrate.results import STATE_ARRAYS, read_state
+
+    try:
+        state = read_state(path)
+    except (ValueError, IndexError):
+        raise IncompleteRun(f"{path}: cannot be read back; cut short?") from None
+    nodes, trace = (run["nodes1"], run["nodes2"]), run["traceNodes1"]
+    expected = dict(zip(STATE_ARRAYS, (2 * nodes[0], 2 * nodes[1], nodes[0], nodes[1], trace, trace - 1)))
+    wrong = [name for name, length in expected.items() if len(state[name]) != length]
+    if wrong:
+        raise IncompleteRun(f"{path}: arrays {', '.join(wrong)} have the wrong length")
+
+
+def _check_pvd(path: Path, files: list[str]) -> None:
+    try:
+        datasets = list(ElementTree.parse(path).getroot().iter("DataSet"))
+        for dataset in datasets:
+            float(dataset.get("timestep"))
+            if dataset.get("part") not in ("0", "1", "2") or dataset.get("file") not in files:
+                raise ValueError(f"entry {dataset.attrib} names no file of the run")
+    except (ElementTree.ParseError, ValueError, TypeError) as error:
+        raise IncompleteRun(f"{path}: not the run's collection ({error})") from None
+
+
+def digest(path: Path) -> str:
+    sha = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            sha.update(block)
+    return sha.hexdigest()
+
+
+def write_manifest(folder: Path, inputs: dict) -> None:
+    """Sizes and hashes of every file in the folder, and the inputs' digest, written last: a
+    folder with a manifest was complete when it was written."""
+    entries = {path.name: {"bytes": path.stat().st_size, "sha256": digest(path)}
+               for path in sorted(Path(folder).iterdir()) if path.is_file() and path.name != MANIFEST}
+    text = json.dumps({"inputs": inputs, "files": entries}, indent=1) + "\n"
+    partial = Path(folder) / (MANIFEST + ".partial")
+    with open(partial, "w") as handle:
+        handle.write(text)
+        handle.flush()
+        os.fsync(handle.fileno())
+    partial.replace(Path(folder) / MANIFEST)
+
+
+def verify_manifest(folder: Path) -> dict:
+    """The manifest of a run folder, after checking that every file it lists is unchanged."""
+    folder = Path(folder)
+    manifest = read_json(folder / MANIFEST)
+    for name, entry in manifest.get("files", {}).items():
+        path = folder / name
+        if Path(name).name != name or not path.is_file():
+            raise IncompleteRun(f"{folder}: {name!r} is missing (the manifest lists it)")
+        if path.stat().st_size != entry["bytes"] or digest(path) != entry["sha256"]:
+            raise IncompleteRun(f"{path}: changed since the run finished (size or SHA-256 differ from the manifest)")
+    return manifest
