@@ -4,6 +4,22 @@
 // n = elements along Γ_C (uniform there); away from it the size grows to `coarse`·(a/n), with
 // the mesh finer toward the edges (±a/2, 0) of the contact zone, where the stresses concentrate.
 DefineConstant[ n = 8, w = 6, depth = 4, a = 1, coarse = 6 ];
+If (n < 1 || n != Floor(n))
+  Error("base.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
+If (a <= 0 || w <= a)
+  Error("base.geo: the contact zone a = %g must be positive and narrower than the base w = %g", a, w);
+  Abort;
+EndIf
+If (depth <= 0)
+  Error("base.geo: depth = %g must be positive", depth);
+  Abort;
+EndIf
+If (coarse < 1)
+  Error("base.geo: coarse = %g must be at least 1", coarse);
+  Abort;
+EndIf
 h = a / n;
 Point(1) = {-w/2, -depth, 0, coarse*h};
 Point(2) = {w/2, -depth, 0, coarse*h};

@@ -8,6 +8,10 @@
 // of the other, and convergence studies measure errors exactly); structured = 0 gives a
 // frontal-Delaunay mesh of size h with n uniform elements on Γ_C.
 DefineConstant[ n = 24, structured = 1 ];
+If (n < 1 || n != Floor(n))
+  Error("paper_body1.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
 If (structured && n % 2 == 1)
   Error("paper_body1.geo: n = %g must be even for the structured mesh (x = 3 must be a node)", n);
   Abort;

@@ -4,6 +4,10 @@
 // (h = 6/n). The edge of the contact zone (near (3.75,0)) and body 2's corner (6,−6) are left out:
 // refining there cost nodes without lowering the error (docs/model-choices.md, "Graded meshes").
 DefineConstant[ n = 6, grade = 0.5, radius = 3 ];
+If (n < 1 || n != Floor(n))
+  Error("paper_body1_graded.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
 h = 6 / n;
 Point(1) = {0, 0, 0, h};
 Point(2) = {6, 0, 0, h};

@@ -5,6 +5,10 @@
 // (the same with every gmsh version; every diagonal the same way, so n and 2n are nested),
 // structured = 0 a frontal-Delaunay mesh with n uniform elements on Γ_C.
 DefineConstant[ n = 32, structured = 1 ];
+If (n < 1 || n != Floor(n))
+  Error("paper_body2.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
 h = 6 / n;
 Point(1) = {0, 0, 0, h};
 Point(2) = {0, -6, 0, h};

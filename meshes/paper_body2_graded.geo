@@ -1,6 +1,10 @@
 // Body 2 of the paper's scene (labels as paper_body2.geo: 1 Γ_C, 2 right, 3 bottom, 4 left),
 // graded toward the ends (0,0) and (6,0) of Γ_C by the power law of graded_size.geo.
 DefineConstant[ n = 8, grade = 0.5, radius = 3 ];
+If (n < 1 || n != Floor(n))
+  Error("paper_body2_graded.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
 h = 6 / n;
 Point(1) = {0, 0, 0, h};
 Point(2) = {0, -6, 0, h};

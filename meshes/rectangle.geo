@@ -4,6 +4,18 @@
 // sharing a side have traces that match when their n match); h = (x1 − x0)/n elsewhere.
 // structured = 1 gives a transfinite mesh, structured = 0 a frontal-Delaunay one.
 DefineConstant[ x0 = 0, x1 = 1, y0 = 0, y1 = 1, n = 10, structured = 0 ];
+If (n < 1 || n != Floor(n))
+  Error("rectangle.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
+If (x1 <= x0)
+  Error("rectangle.geo: x1 = %g must exceed x0 = %g", x1, x0);
+  Abort;
+EndIf
+If (y1 <= y0)
+  Error("rectangle.geo: y1 = %g must exceed y0 = %g", y1, y0);
+  Abort;
+EndIf
 h = (x1 - x0) / n;
 Point(1) = {x0, y0, 0, h};
 Point(2) = {x1, y0, 0, h};

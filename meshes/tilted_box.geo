@@ -3,6 +3,18 @@
 // side = −1: the part below; the line is Γ_C. Labels: 1 Γ_C, 2 right side (x = 2), 3 top or
 // bottom (y = 2 or y = 0), 4 left side (x = 0). n = elements along Γ_C, the same size elsewhere.
 DefineConstant[ n = 6, y0 = 0.6, y1 = 1.4, side = 1 ];
+If (n < 1 || n != Floor(n))
+  Error("tilted_box.geo: n = %g must be a positive integer", n);
+  Abort;
+EndIf
+If (y0 <= 0 || y0 >= 2 || y1 <= 0 || y1 >= 2)
+  Error("tilted_box.geo: the cut from (0, y0 = %g) to (2, y1 = %g) must stay inside the box, 0 < y0, y1 < 2", y0, y1);
+  Abort;
+EndIf
+If (side != 1 && side != -1)
+  Error("tilted_box.geo: side = %g must be 1 (above the cut) or -1 (below)", side);
+  Abort;
+EndIf
 h = Sqrt(4 + (y1 - y0)^2) / n;
 yOuter = (side > 0) ? 2 : 0;
 Point(1) = {0, y0, 0, h};

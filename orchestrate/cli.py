@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from orchestrate.freefem import SolverError
+from orchestrate.freefem import InputError, SolverError
 from orchestrate.mesh import MeshError
 from orchestrate.results import load_result
 from orchestrate.scene import SceneError, parse_value
@@ -180,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     except SolverError as error:
         print(f"error: {error}\n{error.log_tail}", file=sys.stderr)
         return error.returncode
-    except (SceneError, MeshError, FileNotFoundError) as error:
+    except (InputError, MeshError, FileNotFoundError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except RuntimeError as error:

@@ -120,10 +120,15 @@ class Parser:
             self.fail(f"unexpected '{self.peek()[1]}'")
         return tree
 
-    def expression(self):
+    def deeper(self):
+        """Every rule that recurses counts its depth: a tree deeper than MAX_DEPTH is refused
+        before Python's own recursion limit is reached."""
         self.depth += 1
         if self.depth > MAX_DEPTH:
             self.fail(f"expression nested deeper than {MAX_DEPTH}")
+
+    def expression(self):
+        self.deeper()
         left = self.sum()
         token = self.peek()
         if token and token[1] in COMPARISONS:
@@ -150,9 +155,7 @@ class Parser:
         token = self.peek()
         if token and token[1] in ("+", "-"):
             self.index += 1
-            self.depth += 1
-            if self.depth > MAX_DEPTH:
-                self.fail(f"expression nested deeper than {MAX_DEPTH}")
+            self.deeper()
             operand = self.unary()
             self.depth -= 1
             return operand if token[1] == "+" else Unary("-", operand)
@@ -162,7 +165,10 @@ class Parser:
         base = self.atom()
         if (token := self.peek()) and token[1] == "^":
             self.index += 1
-            return Binary("^", base, self.unary())
+            self.deeper()
+            exponent = self.unary()
+            self.depth -= 1
+            return Binary("^", base, exponent)
         return base
 
     def atom(self):

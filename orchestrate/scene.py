@@ -13,6 +13,7 @@ import copy
 import difflib
 import math
 import tomllib
+import unicodedata
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
@@ -20,6 +21,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
+from orchestrate.mesh import geo_constants
 
 
 class SceneError(InputError):
@@ -54,11 +56,11 @@ class Mesh(Strict):
     4 left). A .geo file is gmsh code (it can run commands), so only the project's own are used."""
     geo: str | None = None
     rectangle: tuple[float, float, float, float] | None = Field(default=None, description="x0, x1, y0, y1")
-    n: int = Field(ge=1, le=4096)
-    structured: bool | None = None
-    refine: int = Field(0, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
+    n: int = Field(strict=True, ge=1, le=4096)
+    structured: bool | None = Field(None, strict=True)
+    refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Annotated[float, Field(allow_inf_nan=False)]] = {}
-    contact_label: int = Field(ge=0, le=2**30)
+    contact_label: int = Field(strict=True, ge=0, le=2**30)
 
     @model_validator(mode="after")
     def one_source(self):
@@ -68,6 +70,21 @@ class Mesh(Strict):
             x0, x1, y0, y1 = self.rectangle
             if not all(math.isfinite(v) for v in self.rectangle) or not (x0 < x1 and y0 < y1):
                 raise ValueError(f"rectangle {list(self.rectangle)} needs finite x0 < x1 and y0 < y1")
+        return self
+
+    @model_validator(mode="after")
+    def known_parameters(self):
+        """parameters set the .geo's other DefineConstant values; n, structured and the rectangle
+        have keys of their own (with their limits), and a name the .geo does not define would be
+        ignored by gmsh without a word."""
+        own = {"n", "structured"} | ({"x0", "x1", "y0", "y1"} if self.rectangle is not None else set())
+        constants = geo_constants(self.source())
+        for name in self.parameters:
+            if name in own:
+                raise ValueError(f"parameters.{name}: set it with its own key (mesh.{'rectangle' if name[0] in 'xy' else name})")
+            if name not in constants:
+                raise ValueError(f"parameters.{name}: not a constant of {self.source().name} (its constants: "
+                                 f"{', '.join(constants)}; {', '.join(sorted(own & set(constants)))} have keys of their own)")
         return self
 
     @field_validator("geo")
@@ -125,25 +142,25 @@ class BodyDamage(Strict):
 
 class Clamped(Strict):
     type: Literal["clamped"]
-    label: int = Field(ge=0, le=2**30)
+    label: int = Field(strict=True, ge=0, le=2**30)
 
 
 class Roller(Strict):
     type: Literal["roller"]
-    label: int = Field(ge=0, le=2**30)
+    label: int = Field(strict=True, ge=0, le=2**30)
     component: Literal["x", "y"]
 
 
 class Displacement(Strict):
     type: Literal["displacement"]
-    label: int = Field(ge=0, le=2**30)
+    label: int = Field(strict=True, ge=0, le=2**30)
     component: Literal["x", "y"]
     value: Expression
 
 
 class Traction(Strict):
     type: Literal["traction"]
-    label: int = Field(ge=0, le=2**30)
+    label: int = Field(strict=True, ge=0, le=2**30)
     fx: Expression = "0"
     fy: Expression = "0"
 
@@ -182,7 +199,7 @@ class Body(Strict):
 
 class Time(Strict):
     T: float = Field(gt=0, allow_inf_nan=False)
-    N: int = Field(ge=1, le=10**7)
+    N: int = Field(strict=True, ge=1, le=10**7)
 
 
 class Glue(Strict):
@@ -200,13 +217,13 @@ class DamageNumerics(Strict):
 class Solver(Strict):
     contact: Literal["pdas", "bm"] = "pdas"  # primal–dual active set, or Bermúdez–Moreno (the paper's)
     contact_tol: float = Field(1e-10, gt=0, allow_inf_nan=False)
-    contact_max_iterations: int = Field(10000, ge=1)
+    contact_max_iterations: int = Field(10000, strict=True, ge=1, le=10**6)
     bm_omega: float = Field(1.0, gt=0, allow_inf_nan=False)
     damage_tol: float = Field(1e-12, gt=0, allow_inf_nan=False)
-    damage_max_iterations: int = Field(50, ge=1)
+    damage_max_iterations: int = Field(50, strict=True, ge=1, le=10**4)
     bound_tol: float = Field(1e-10, ge=0, allow_inf_nan=False)
     linear_solver: Literal["CHOLMOD", "UMFPACK"] = "CHOLMOD"
-    allow_unstable: bool = False  # run even when k exceeds the explicit bound k* (MODEL.md §7)
+    allow_unstable: bool = Field(False, strict=True)  # run even when k exceeds the explicit bound k* (MODEL.md §7)
     divergence_factor: float = Field(10.0, gt=1, allow_inf_nan=False)
 
 
@@ -214,13 +231,13 @@ class Output(Strict):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
     "state" (the unknowns, for error norms between runs)."""
-    times: Literal["final", "all", "none"] | list[float] = "final"
+    times: Literal["final", "all", "none"] | Annotated[list[float], Field(min_length=1)] = "final"
     fields: list[Literal["bodies", "stress", "contact", "state"]] = ["bodies", "stress", "contact"]
-    images: bool = True
+    images: bool = Field(True, strict=True)
 
 
 class Scene(Strict):
-    title: str = ""
+    title: str = Field("", max_length=500)
     time: Time
     body1: Body
     body2: Body
@@ -228,6 +245,15 @@ class Scene(Strict):
     damage: DamageNumerics = DamageNumerics()
     solver: Solver = Solver()
     output: Output = Output()
+
+    @field_validator("title")
+    @classmethod
+    def title_text(cls, value):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            raise ValueError("the title is not valid Unicode text (a lone surrogate)") from None
+        return value
 
     @model_validator(mode="after")
     def output_times_in_range(self):
@@ -342,13 +368,20 @@ def describe(error: dict) -> str:
 
 # --- TOML writing (the scene as run) ---------------------------------------------------------
 
+def toml_string(value: str) -> str:
+    """A TOML basic string: quotes and backslashes escaped, every control character (TOML allows
+    none raw, DEL included) as a \\uXXXX escape."""
+    return '"' + "".join("\\" + c if c in '"\\' else f"\\u{ord(c):04X}" if unicodedata.category(c) == "Cc" else c
+                         for c in value) + '"'
+
+
 def _toml_value(value) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, (int, float)):
         return repr(value)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return toml_string(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, dict):
