@@ -61,7 +61,7 @@ def variants(levels: int, check_reference: bool = False) -> dict[str, tuple[Path
     is the reference; the check is the uniform level two finer than the last, at the reference's N."""
     uniform = [uniform_level(l) for l in range(levels)]
     ladders = {"uniform, pdas": (PAPER, uniform),
-               "uniform, bm": (PAPER, [{**overrides, "solver.contact": "bm"} for overrides in uniform]),
+               "uniform, bm": (PAPER, [{**overrides, "solver.contactSolver": "bm"} for overrides in uniform]),
                "graded, pdas": (GRADED, [level(l) for l in range(levels - 1)]),
                REFERENCE: (GRADED, [level(levels - 1, 20 * 2 ** levels)])}
     if check_reference:
@@ -104,16 +104,12 @@ def final_distance(run_folder: Path, reference: Path) -> float:
 def solver_table(folder: Path, steps: int) -> list[dict]:
     """Factorization and solve times of every sparse solver on every matrix of a level."""
     done = run_script(REPO / "edp" / "tools" / "solvers.edp",
-                      ["-mesh1", folder / "mesh1.msh", "-mesh2", folder / "mesh2.msh", "-N", steps, "-out", folder])
+                      ["-mesh1", "mesh1.msh", "-mesh2", "mesh2.msh", "-N", steps, "-out", "."], cwd=folder)
     if done.returncode != 0:
         raise RuntimeError(f"solvers.edp failed: {done.error_line}")
-    rows = []
-    for line in done.stdout.splitlines():
-        if line.startswith("solver "):
-            _, matrix, solver, dofs, factor, solve = line.split()
-            rows.append({"matrix": matrix, "solver": solver, "dofs": int(dofs), "factorSeconds": float(factor),
-                         "solveSeconds": float(solve)})
-    return rows
+    with open(folder / "solvers.csv") as handle:
+        return [{**row, "dofs": int(row["dofs"]), "factorSeconds": float(row["factorSeconds"]),
+                 "solveSeconds": float(row["solveSeconds"])} for row in csv.DictReader(handle)]
 
 
 def bench(out: str | Path, levels: int = 5, check_reference: bool = False) -> list[dict]:

@@ -28,7 +28,7 @@ def command_run(options) -> int:
 
     overrides = parse_assignments(options.set, "--set")
     if options.allow_unstable:
-        overrides["solver.allow_unstable"] = True
+        overrides["solver.allowUnstable"] = True
     result = run(options.scene, options.out, overrides, force=options.force, progress=sys.stderr.isatty())
     final = result.history
     print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "

@@ -248,20 +248,20 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
         info = meshing.read_msh(target)
         require_labels(body, index, info)
         infos.append(info)
-    constraints = infos[0].segments.get(scene.body1.mesh.contact_label, 0) + 1
-    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, scene.solver.contact == "pdas")
+    constraints = infos[0].segments.get(scene.body1.mesh.contactLabel, 0) + 1
+    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, scene.solver.contactSolver == "pdas")
     if free and need > free:
         raise TooLarge(f"this run needs about {need / 2**30:.1f} GiB ({infos[0].nodes + infos[1].nodes:,} nodes, "
-                          f"{constraints} contact nodes{', dense K⁻¹Cᵀ for the active-set solver' if scene.solver.contact == 'pdas' else ''}) "
+                          f"{constraints} contact nodes{', dense K⁻¹Cᵀ for the active-set solver' if scene.solver.contactSolver == 'pdas' else ''}) "
                           f"and {free / 2**30:.1f} GiB are free: lower mesh.n or mesh.refine"
-                          + (", or use solver.contact = \"bm\"" if scene.solver.contact == "pdas" else ""))
+                          + (", or use solver.contactSolver = \"bm\"" if scene.solver.contactSolver == "pdas" else ""))
     return infos
 
 
 def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
     """Every label the scene names must be a boundary label of the body's mesh: a condition on a
     missing label acts on nothing and the run would silently be another problem."""
-    named = [(f"body{index}.mesh.contact_label", body.mesh.contact_label)]
+    named = [(f"body{index}.mesh.contactLabel", body.mesh.contactLabel)]
     named += [(f"body{index}.boundary.{j}.label", condition.label) for j, condition in enumerate(body.boundary)]
     for key, label in named:
         if label not in info.segments:

@@ -22,6 +22,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.mesh import geo_constants
+from orchestrate.parameters import PARAMETERS, driver_values, field
 
 
 class SceneError(InputError):
@@ -60,7 +61,7 @@ class Mesh(Strict):
     structured: bool | None = Field(None, strict=True)
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Annotated[float, Field(allow_inf_nan=False)]] = {}
-    contact_label: int = Field(strict=True, ge=0, le=2**30)
+    contactLabel: int = field("contactLabel")
 
     @model_validator(mode="after")
     def one_source(self):
@@ -118,12 +119,12 @@ class Mesh(Strict):
 
 class Material(Strict):
     """σ = Aε(u̇) + ζGε(u): (Aτ) = μ tr(τ) I + η τ; G from E, ν (plane stress or strain)."""
-    E: float = Field(gt=0, allow_inf_nan=False)
-    nu: float = Field(gt=-1, lt=0.5)
-    mu: float = Field(allow_inf_nan=False)
-    eta: float = Field(gt=0, allow_inf_nan=False)
-    kappa: float = Field(ge=0, allow_inf_nan=False)
-    plane: Literal["stress", "strain"] = "stress"
+    E: float = field("E")
+    nu: float = field("nu")
+    planeStrain: bool = field("planeStrain")
+    mu: float = field("mu")
+    eta: float = field("eta")
+    kappa: float = field("kappa")
 
     @model_validator(mode="after")
     def viscosity_definite(self):
@@ -134,33 +135,33 @@ class Material(Strict):
 
 class BodyDamage(Strict):
     """φ = λ_D (1 − ζ)/ζ − ½ λ_u R(ε·ε) + λ_w, and the initial damage ζ0."""
-    lambdaD: float = Field(0.01, ge=0, allow_inf_nan=False)
-    lambdaU: float = Field(1.0, ge=0, allow_inf_nan=False)
-    lambdaW: float = Field(0.0, allow_inf_nan=False)
-    zeta0: float = Field(1.0, ge=0, le=1)
+    lambdaD: float = field("lambdaD")
+    lambdaU: float = field("lambdaU")
+    lambdaW: float = field("lambdaW")
+    zeta0: float = field("zeta0")
 
 
 class Clamped(Strict):
     type: Literal["clamped"]
-    label: int = Field(strict=True, ge=0, le=2**30)
+    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
 
 
 class Roller(Strict):
     type: Literal["roller"]
-    label: int = Field(strict=True, ge=0, le=2**30)
+    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
     component: Literal["x", "y"]
 
 
 class Displacement(Strict):
     type: Literal["displacement"]
-    label: int = Field(strict=True, ge=0, le=2**30)
+    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
     component: Literal["x", "y"]
     value: Expression
 
 
 class Traction(Strict):
     type: Literal["traction"]
-    label: int = Field(strict=True, ge=0, le=2**30)
+    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
     fx: Expression = "0"
     fy: Expression = "0"
 
@@ -170,7 +171,7 @@ Boundary = Annotated[Union[Clamped, Roller, Displacement, Traction], Field(discr
 
 class Body(Strict):
     mesh: Mesh
-    material: Material
+    material: Material = Material()
     damage: BodyDamage = BodyDamage()
     boundary: list[Boundary] = Field(min_length=1)
     volume_force: tuple[Expression, Expression] = ("0", "0")
@@ -190,7 +191,7 @@ class Body(Strict):
             if isinstance(condition, Traction):
                 if prescribed.get(condition.label) == {"x", "y"}:
                     raise ValueError(f"label {condition.label}: a traction on a boundary whose displacement is prescribed")
-                if condition.label == self.mesh.contact_label:
+                if condition.label == self.mesh.contactLabel:
                     raise ValueError(f"label {condition.label} is the contact label: Γ_C carries no given traction")
         if not prescribed:
             raise ValueError("no clamped, roller or displacement condition: the body would float (MODEL.md §1)")
@@ -198,47 +199,47 @@ class Body(Strict):
 
 
 class Time(Strict):
-    T: float = Field(gt=0, allow_inf_nan=False)
-    N: int = Field(strict=True, ge=1, le=10**7)
+    T: float = field("T")
+    N: int = field("N")
 
 
 class Glue(Strict):
-    gammaNu: float = Field(1.0, ge=0, allow_inf_nan=False)
-    gammaR: float = Field(1.0, ge=0, allow_inf_nan=False)
-    pTau: float = Field(1.0, ge=0, allow_inf_nan=False)
-    L: float = Field(1.0, gt=0, allow_inf_nan=False)
-    beta0: float = Field(1.0, ge=0, le=1)
+    gammaNu: float = field("gammaNu")
+    gammaR: float = field("gammaR")
+    pTau: float = field("pTau")
+    L: float = field("L")
+    beta0: float = field("beta0")
 
 
 class DamageNumerics(Strict):
-    zetaMin: float = Field(1e-3, gt=0, le=1)
+    zetaMin: float = field("zetaMin")
 
 
 class Solver(Strict):
-    contact: Literal["pdas", "bm"] = "pdas"  # primal–dual active set, or Bermúdez–Moreno (the paper's)
-    contact_tol: float = Field(1e-10, gt=0, allow_inf_nan=False)
-    contact_max_iterations: int = Field(10000, strict=True, ge=1, le=10**6)
-    bm_omega: float = Field(1.0, gt=0, allow_inf_nan=False)
-    damage_tol: float = Field(1e-12, gt=0, allow_inf_nan=False)
-    damage_max_iterations: int = Field(50, strict=True, ge=1, le=10**4)
-    bound_tol: float = Field(1e-10, ge=0, allow_inf_nan=False)
-    linear_solver: Literal["CHOLMOD", "UMFPACK"] = "CHOLMOD"
-    allow_unstable: bool = Field(False, strict=True)  # run even when k exceeds the explicit bound k* (MODEL.md §7)
-    divergence_factor: float = Field(10.0, gt=1, allow_inf_nan=False)
+    contactSolver: Literal[PARAMETERS["contactSolver"].choices] = field("contactSolver")
+    contactTol: float = field("contactTol")
+    contactMaxIt: int = field("contactMaxIt")
+    bmOmega: float = field("bmOmega")
+    damageTol: float = field("damageTol")
+    damageMaxIt: int = field("damageMaxIt")
+    boundTol: float = field("boundTol")
+    linearSolver: Literal[PARAMETERS["linearSolver"].choices] = field("linearSolver")
+    allowUnstable: bool = field("allowUnstable")
+    divergenceFactor: float = field("divergenceFactor")
 
 
 class Output(Strict):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
     "state" (the unknowns, for error norms between runs)."""
-    times: Literal["final", "all", "none"] | Annotated[list[float], Field(min_length=1)] = "final"
-    fields: list[Literal["bodies", "stress", "contact", "state"]] = ["bodies", "stress", "contact"]
+    times: Literal["final", "all", "none"] | Annotated[list[float], Field(min_length=1)] = PARAMETERS["outTimes"].default
+    fields: list[Literal["bodies", "stress", "contact", "state"]] = PARAMETERS["outFields"].default.split(",")
     images: bool = Field(True, strict=True)
 
 
 class Scene(Strict):
     title: str = Field("", max_length=500)
-    time: Time
+    time: Time = Time()
     body1: Body
     body2: Body
     glue: Glue = Glue()
@@ -431,27 +432,6 @@ def _number(value) -> str:
     return str(value) if isinstance(value, int) and not isinstance(value, bool) else expr.number_code(value)
 
 
-def solver_parameters(scene: Scene) -> dict[str, float | int | str]:
-    """The scene's values under the driver's parameter names (edp/lib/defaults.idp)."""
-    values: dict[str, float | int | str] = {"T": scene.time.T, "N": scene.time.N}
-    for i, body in ((1, scene.body1), (2, scene.body2)):
-        m, d = body.material, body.damage
-        values.update({f"labC{i}": body.mesh.contact_label, f"E{i}": m.E, f"nu{i}": m.nu,
-                       f"planeStrain{i}": int(m.plane == "strain"), f"mu{i}": m.mu, f"eta{i}": m.eta,
-                       f"kappa{i}": m.kappa, f"lambdaD{i}": d.lambdaD, f"lambdaU{i}": d.lambdaU,
-                       f"lambdaW{i}": d.lambdaW, f"zeta0{i}": d.zeta0})
-    g, s = scene.glue, scene.solver
-    values.update({"gammaNu": g.gammaNu, "gammaR": g.gammaR, "pTau": g.pTau, "L": g.L, "beta0": g.beta0,
-                   "zetaMin": scene.damage.zetaMin, "contactSolver": s.contact, "contactTol": s.contact_tol,
-                   "contactMaxIt": s.contact_max_iterations, "bmOmega": s.bm_omega, "damageTol": s.damage_tol,
-                   "damageMaxIt": s.damage_max_iterations, "boundTol": s.bound_tol, "linearSolver": s.linear_solver,
-                   "allowUnstable": int(s.allow_unstable), "divergenceFactor": s.divergence_factor})
-    times = scene.output.times
-    values["outTimes"] = times if isinstance(times, str) else ",".join(expr.number_code(t) for t in times)
-    values["outFields"] = ",".join(scene.output.fields) or "none"
-    return values
-
-
 def _labels(body: Body) -> str:
     """Every boundary label the body's conditions name, for the driver to check against the mesh."""
     return ", ".join(str(label) for label in dict.fromkeys(condition.label for condition in body.boundary))
@@ -462,7 +442,7 @@ def to_freefem_scene(scene: Scene) -> str:
     run folder: the meshes are that folder's body1.msh and body2.msh, so no path is written."""
     lines = ["// Generated by orchestrate from a scene file: numbers formatted by Python, expressions",
              "// written from their parsed form (orchestrate/expr.py). Edit the scene, not this file."]
-    parameters = {**solver_parameters(scene), "mesh1": "body1.msh", "mesh2": "body2.msh"}
+    parameters = {**driver_values(scene.model_dump(mode="json")), "mesh1": "body1.msh", "mesh2": "body2.msh"}
     for name, value in parameters.items():
         code = f'"{value}"' if isinstance(value, str) else _number(value)
         lines.append(f'setParam("{name}", {code});')

@@ -277,7 +277,7 @@ def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int)
 def threshold(scene_path, overrides: dict, folder: Path, pattern: re.Pattern) -> dict:
     """The predicted bound (from a short run) against the observed one (bisection on N over a
     horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
-    probe = {**overrides, "solver.allow_unstable": True, "output.times": "none", "output.images": False}
+    probe = {**overrides, "solver.allowUnstable": True, "output.times": "none", "output.images": False}
     is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder)
     k_star = printed_bound(folder, pattern)
     if k_star is None:

@@ -5,9 +5,9 @@ from conftest import gmsh_mesh
 from orchestrate.freefem import REPO, run_script
 
 
-def mortar_facts(upper, lower, labC1=1, labC2=3):
+def mortar_facts(upper, lower, contactLabel1=1, contactLabel2=3):
     done = run_script(REPO / "tests" / "edp" / "mortar_check.edp",
-                      ["-mesh1", upper, "-mesh2", lower, "-labC1", labC1, "-labC2", labC2])
+                      ["-mesh1", upper, "-mesh2", lower, "-contactLabel1", contactLabel1, "-contactLabel2", contactLabel2])
     assert done.returncode == 0, done.stdout + done.stderr
     return {line.split()[0]: float(line.split()[1]) for line in done.stdout.splitlines() if len(line.split()) == 2}
 
@@ -43,7 +43,7 @@ def test_projection_is_the_identity_on_matching_traces(blocks):
 
 def test_paper_meshes_couple_along_the_whole_contact_line():
     facts = mortar_facts(REPO / "meshes" / "paper_body1-n24.msh", REPO / "meshes" / "paper_body2-n32.msh",
-                         labC1=1, labC2=1)
+                         contactLabel1=1, contactLabel2=1)
     assert facts["lengthC"] == pytest.approx(6.0, abs=1e-12)
     assert facts["sumM12"] == pytest.approx(6.0, abs=1e-12)
     assert facts["linearError"] < 1e-12

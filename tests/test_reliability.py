@@ -46,11 +46,11 @@ INJECTIONS = [
     ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/../../outside.geo"'),
     ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/paper_body1.geo\\"); exec(\\"ls"'),
     ('label = 5', 'label = "5, ux = 0); exec(\\"ls\\"); on(5"'),
-    ('linear_solver = "CHOLMOD"', 'linear_solver = "CHOLMOD\\"); exec(\\"ls\\"); (\\""'),
+    ('linearSolver = "CHOLMOD"', 'linearSolver = "CHOLMOD\\"); exec(\\"ls\\"); (\\""'),
     ('times = "final"', 'times = "final\\"); exec(\\"ls\\"); (\\""'),
-    ('contact_label = 1', 'contact_label = "1; exec"'),
+    ('contactLabel = 1', 'contactLabel = "1; exec"'),
     ('n = 24', 'n = 24\nparameters = { "n; rm -rf" = 1 }'),
-    ('plane = "stress"', 'plane = "stress\\"); exec(\\""'),
+    ('planeStrain = false', 'plane = "stress\\"); exec(\\""'),
 ]
 
 

@@ -59,7 +59,7 @@ def test_an_existing_folder_is_kept_unless_forced(tmp_path):
 def test_a_failed_run_leaves_a_marked_folder_with_its_log(tmp_path):
     out = tmp_path / "run"
     with pytest.raises(SolverError, match="contactMaxIt"):
-        run(PAPER, out, {**COARSE, "solver.contact_max_iterations": 2})
+        run(PAPER, out, {**COARSE, "solver.contactMaxIt": 2})
     assert not out.exists()
     assert "ERROR: step 1/20" in (tmp_path / "run.failed" / "run.log").read_text()
 

@@ -114,7 +114,7 @@ def test_the_tangential_glue_bound_is_sharp(tmp_path):
     assert refused.value.returncode == 3 and "tangential glue bound" in refused.value.message
     smallest = int(re.search(r"N >= (\d+)", refused.value.message).group(1))
     assert 100 < smallest < 5000  # p_τ dominates: far above the elastic N >= 1
-    below = {**SLIDING, "time.N": int(0.99 * smallest), "solver.allow_unstable": True}
+    below = {**SLIDING, "time.N": int(0.99 * smallest), "solver.allowUnstable": True}
     with pytest.raises(SolverError) as diverged:
         run(GLUE_SCENE, tmp_path / "below", below)
     assert diverged.value.returncode == 5 and "diverges" in diverged.value.message
@@ -137,6 +137,6 @@ def test_an_instability_capped_by_the_glue_truncation_is_still_stopped(tmp_path)
     from orchestrate import SolverError, run
 
     with pytest.raises(SolverError) as stopped:
-        run(GLUE_SCENE, tmp_path / "run", {**SLIDING, "glue.pTau": 1e4, "time.N": 1336, "solver.allow_unstable": True})
+        run(GLUE_SCENE, tmp_path / "run", {**SLIDING, "glue.pTau": 1e4, "time.N": 1336, "solver.allowUnstable": True})
     assert stopped.value.returncode == 5 and "alternated in sign" in stopped.value.message
     assert int(re.search(r"step (\d+)/", stopped.value.message).group(1)) < 30

@@ -108,7 +108,7 @@ def test_a_checkout_whose_path_has_hash_semicolon_quotes_and_spaces_runs(tmp_pat
     ("body1.boundary.1.label", 99, ["body1.boundary.1.label = 99", "no boundary label 99", "1, 2, 3, 4, 5"]),
     ("body1.boundary.0.label", 42, ["body1.boundary.0.label = 42", "1, 2, 3, 4, 5"]),
     ("body2.boundary.0.label", 7, ["body2.boundary.0.label = 7", "1, 2, 3, 4"]),
-    ("body2.mesh.contact_label", 9, ["body2.mesh.contact_label = 9"]),
+    ("body2.mesh.contactLabel", 9, ["body2.mesh.contactLabel = 9"]),
 ])
 def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(tmp_path, key, value, words):
     with pytest.raises(SceneError) as error:
@@ -125,7 +125,7 @@ def test_labels_are_refused_exactly_when_one_is_missing(present, named):
     body = scene.body1.model_copy(update={"boundary": [b.model_copy(update={"label": label})
                                                        for b, label in zip(scene.body1.boundary * 5, named)]})
     info = MeshInfo(10, 10, {label: 1 for label in present})
-    labels = {body.mesh.contact_label, *named[:len(body.boundary)]}
+    labels = {body.mesh.contactLabel, *named[:len(body.boundary)]}
     if labels <= present:
         require_labels(body, 1, info)
     else:
@@ -286,8 +286,8 @@ def test_a_partial_that_is_not_a_run_s_folder_is_refused(tmp_path, kind):
 # --- 9-11. bad input: a clear message, never a traceback ---------------------------------------
 
 @pytest.mark.parametrize("overrides, words", [
-    ({"solver.contact_max_iterations": 1e29}, ["solver.contact_max_iterations", "valid integer"]),
-    ({"solver.contact_max_iterations": 10 ** 29}, ["solver.contact_max_iterations", "less than or equal to 1000000"]),
+    ({"solver.contactMaxIt": 1e29}, ["solver.contactMaxIt", "valid integer"]),
+    ({"solver.contactMaxIt": 10 ** 29}, ["solver.contactMaxIt", "less than or equal to 1000000"]),
     ({"time.N": True}, ["time.N = True", "valid integer"]),
     ({"output.times": []}, ["output.times"]),
     ({"body1.mesh.parameters": {"n": 1e5}}, ["parameters.n", "its own key"]),
@@ -322,7 +322,7 @@ def test_a_mesh_too_large_for_this_machine_is_refused_with_the_estimate(tmp_path
 
 @settings(max_examples=300, deadline=None)
 @given(key=st.sampled_from(["time.T", "body1.material.E", "body2.material.eta", "glue.gammaNu", "glue.L",
-                            "damage.zetaMin", "solver.contact_tol", "body1.damage.zeta0", "solver.divergence_factor"]),
+                            "damage.zetaMin", "solver.contactTol", "body1.damage.zeta0", "solver.divergenceFactor"]),
        value=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2 ** 70, 2 ** 70),
                        st.sampled_from([0.0, -0.0, 5e-324, 1e-320, 1e308, -1e308, True, False, "1", None])))
 def test_numeric_edge_values_are_valid_or_refused_never_an_error_of_another_kind(key, value):
