@@ -15,27 +15,26 @@ measured graded level, with twice its steps (edp/tools/errors.edp interpolates e
 reference's meshes). With --check-reference, a uniform run finer than every measured level is
 also measured against the reference (that distance bounds what the reference's own error can do
 to the figures), and every run against it, so the graded gains can be read against either.
-Also: the time of the paper's scene at h1 = 6/96, N = 320 by FreeFem++ alone, the sparse solvers
-timed on each matrix, and where the issue's speed targets stand (the graded gain at equal error
-reads both work–precision curves, interpolated in log–log). Writes bench.csv, README.md and
-workprecision.png.
+Also: the sparse solvers timed on each matrix of the finest uniform level, and the graded meshes'
+gain at equal error (both work–precision curves interpolated in log–log). Writes bench.csv,
+README.md and workprecision.png.
 """
 from __future__ import annotations
 
 import csv
 import json
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.convergence import distances
+from orchestrate.freefem import REPO, run_script
 from orchestrate.manifest import facts
 from orchestrate.plots import log_axes, pyplot, save
+from orchestrate.reports import bench_report, write_csv
 from orchestrate.results import load_result
 from orchestrate.runner import run
-from orchestrate.study import distances
 
 REFERENCE = "reference"
 CHECK = "reference check"
@@ -137,10 +136,7 @@ def bench(out: str | Path, levels: int = 5, check_reference: bool = False) -> li
         for body in (1, 2):
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
         solvers = solver_table(scratch / "solvers", fine["N"])
-        target = None
-        if fine["N"] == 320:
-            target = target_run(finest / "body1.msh", finest / "body2.msh", scratch / "target")
-    write(out, rows, solvers, target, levels, check_reference)
+    write(out, rows, solvers, levels, check_reference)
     return rows
 
 
@@ -171,101 +167,27 @@ def graded_gains(rows: list[dict], key: str = "errorToReference") -> list[tuple[
     return gains
 
 
-def target_lines(rows: list[dict], target: dict | None) -> list[str]:
-    """Where the issue's three speed targets stand, from this run's figures."""
-    lines = ["## Against the targets", ""]
-    ratios = [f"{row['overheadRatio']:.2f} at h1 = {h1(row)}"
-              for row in rows if row["variant"] == "uniform, pdas" and row["nodes1"] >= 49 ** 2]
-    lines.append("- overhead ratio ≤ 1.5 from h1 = 6/48 up (uniform, pdas): " + (", ".join(ratios) or "no level that fine"))
-    if target:
-        lines.append(f"- the paper's scene at h1 = 6/96, N = 320 in under 3 s: {target['wall']:.2f} s")
-    lines.append("- graded meshes at least 4× faster at equal error, from 5 % down: " + gain_text(graded_gains(rows)))
-    if any("errorToCheck" in row for row in rows):
-        lines.append("  - the same with every error measured against the reference check instead: "
-                     + gain_text(graded_gains(rows, "errorToCheck")))
+def gain_lines(rows: list[dict], check_reference: bool) -> list[str]:
+    """The graded meshes' gain at every error both curves span, against each reference."""
+    keys = [("errorToReference", "against the reference")] + ([("errorToCheck", "against the reference check")]
+                                                              if check_reference else [])
+    lines = []
+    for key, against in keys:
+        gains = graded_gains(rows, key)
+        text = ", ".join(f"{gain:.2f}× at {100 * error:.2f} %" for error, gain in gains) or "the two curves share no error range"
+        lines.append(f"- {against}: {text}")
     return lines
-
-
-def h1(row: dict) -> str:
-    """h1 of a uniform level: body 1 is a square grid, (n + 1)² nodes for h1 = 6/n."""
-    return f"6/{round(row['nodes1'] ** 0.5) - 1}"
-
-
-def gain_text(gains: list[tuple[float, float]]) -> str:
-    within = [gain for error, gain in gains if error <= 0.05]
-    return (", ".join(f"{gain:.2f}× at {100 * error:.2f} %" for error, gain in gains)
-            + (f"; smallest at or below 5 %: {min(within):.2f}×" if within else "")
-            or "the two curves share no error range")
-
-
-def target_run(mesh1: Path, mesh2: Path, folder: Path, repeats: int = 3) -> dict:
-    """The paper's scene at h1 = 6/96, h2 = 6/128, N = 320 by FreeFem++ alone: wall seconds
-    including its start-up, best of `repeats`."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        done = run_script(MAIN, ["-mesh1", mesh1, "-mesh2", mesh2, "-N", 320, "-out", folder])
-        times.append(time.perf_counter() - start)
-        if done.returncode != 0:
-            raise RuntimeError(f"6/96 run failed: {done.error_line}")
-    history = load_result(folder).history
-    return {"wall": min(times), "steps": 320, "stepMs": 1000 * float(np.mean(history["stepSeconds"]))}
 
 
 COLUMNS = ["variant", "level", "nodes1", "nodes2", "N", "wall", "startup", "meshing", "setup", "loop", "output",
            "overheadRatio", "contactIters", "normV", "errorToReference", "errorToCheck"]
 
 
-def write(out: Path, rows: list[dict], solvers: list[dict], target: dict, levels: int, check_reference: bool) -> None:
-    with open(out / "bench.csv", "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=COLUMNS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+def write(out: Path, rows: list[dict], solvers: list[dict], levels: int, check_reference: bool) -> None:
+    write_csv(out / "bench.csv", rows, COLUMNS)
     plot(out / "workprecision.png", rows)
-    lines = ["# Benchmark: run time against error, the paper's scene", "",
-             "Reproduce (from the repository root; about ten minutes on 2 cores with the check, four without):", "",
-             "```sh", f"python -m orchestrate bench --levels {levels}" + (" --check-reference" if check_reference else ""),
-             "```", "",
-             "Times in seconds: *wall* = meshing (empty cache) + FreeFem++ (start-up, set-up, time loop, output); "
-             "set-up, loop and output are FreeFEM's own CPU clock, and start-up is FreeFem++'s wall time less that "
-             "clock (negative when multithreaded BLAS puts more CPU than wall time into the factorizations). "
-             "*overhead* = time per step / the back-substitutions a step cannot avoid (one per body for u, one per "
-             "body for ζ), timed in the same process. *error* = "
-             "‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V against one reference for every variant (the row *reference*: the "
-             "graded mesh one level finer than the finest measured graded level, with twice its steps); each run is "
-             "interpolated onto the reference's meshes. Timings on this virtual machine drift by ±20 % between runs "
-             "minutes apart: each measured level is the fastest of 3 runs; the reference runs once."
-             + (" *error vs check*: the same against the row *reference check* (see below), on its meshes."
-                if check_reference else ""), ""]
-    header = ["variant", "level", "nodes (body 1, 2)", "N", "wall", "start-up", "meshing", "set-up", "loop", "output",
-              "overhead", "contact it/step", "error"] + (["error vs check"] if check_reference else [])
-    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for row in rows:
-        cells = [row["variant"], row["level"], f"{row['nodes1']}, {row['nodes2']}", row["N"]]
-        cells += [f"{row[key]:.3f}" for key in ("wall", "startup", "meshing", "setup", "loop", "output")]
-        cells += [f"{row['overheadRatio']:.2f}", f"{row['contactIters']:.2f}"]
-        cells.append(f"{100 * row['errorToReference']:.2f} %" if "errorToReference" in row else "reference")
-        if check_reference:
-            cells.append(f"{100 * row['errorToCheck']:.2f} %" if "errorToCheck" in row else "reference")
-        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
-    for row in rows:
-        if row["variant"] == CHECK:
-            lines += ["", f"Reference check: a uniform run finer than every measured level (h1 = {h1(row)}, "
-                      f"N = {row['N']}) lies {100 * row['errorToReference']:.2f} % from the reference (the reference "
-                      f"{100 * next(r['errorToCheck'] for r in rows if r['variant'] == REFERENCE):.2f} % from it, "
-                      "measured on its meshes). Both have errors of their own, so errors in the table much below "
-                      "this figure are not resolved; where the two error columns differ, the truth lies between."]
-    if target:
-        lines += ["", f"The paper's scene at h1 = 6/96, h2 = 6/128, N = 320 by FreeFem++ alone (start-up included, "
-                  f"best of 3): **{target['wall']:.2f} s**, {target['stepMs']:.1f} ms per step."]
-    lines += [""] + target_lines(rows, target)
-    lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
-              "the factorization):", "",
-              "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]
-    for row in solvers:
-        lines.append(f"| {row['matrix']} | {row['dofs']} | {row['solver']} | {row['factorSeconds'] * 1000:.1f} ms | "
-                     f"{row['solveSeconds'] * 1000:.2f} ms |")
-    (out / "README.md").write_text("\n".join(lines) + "\n")
+    command = f"python -m orchestrate bench --levels {levels}" + (" --check-reference" if check_reference else "")
+    (out / "README.md").write_text(bench_report(rows, solvers, command, check_reference, gain_lines(rows, check_reference)))
 
 
 def plot(target: Path, rows: list[dict]) -> None:
@@ -278,3 +200,25 @@ def plot(target: Path, rows: list[dict]) -> None:
     axis.invert_xaxis()
     log_axes(axis, "relative error ‖u_h(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V", "wall time of a run (s)")
     save(figure, target)
+
+
+# --- command line ---------------------------------------------------------------------------
+
+NAME, HELP = "bench", "run time against error on this machine (results/bench)"
+
+
+def add_arguments(parser) -> None:
+    from orchestrate.cli import at_least_two
+
+    parser.add_argument("--levels", type=at_least_two, default=5,
+                        help="measured uniform levels (one fewer graded: the next graded level is the reference)")
+    parser.add_argument("--check-reference", action="store_true",
+                        help="also run a uniform level finer than every other and measure every run against it too "
+                             "(about six minutes more)")
+    parser.add_argument("--out", default="results/bench")
+
+
+def command(options) -> int:
+    bench(options.out, levels=options.levels, check_reference=options.check_reference)
+    print((Path(options.out) / "README.md").read_text())
+    return 0

@@ -5,7 +5,8 @@ with files cut short. So a run is complete only when every file it lists in run.
 its last act) has been read back whole: history.csv with a row per step, every .vtu parsed with
 the node and triangle counts the run reported, every state file with its arrays' lengths, the
 .pvd naming only files of the run. Then `manifest.json`, written last and atomically, records the
-size and SHA-256 of every file in the folder and the digest of the run's inputs. `load_result`,
+size and SHA-256 of every file in the folder (images aside: `render` remakes them) and the digest
+of the run's inputs. `load_result`,
 `render` and `sweep` trust a folder only through it; a folder FreeFem++ wrote by hand (run.json,
 no manifest) is checked file by file each time it is loaded.
 """
@@ -139,10 +140,12 @@ def digest(path: Path) -> str:
 
 
 def write_manifest(folder: Path, inputs: dict) -> None:
-    """Sizes and hashes of every file in the folder, and the inputs' digest, written last: a
-    folder with a manifest was complete when it was written."""
+    """Sizes and hashes of every file in the folder but the images (which `render` makes anew from
+    the data), and the inputs' digest, written last: a folder with a manifest was complete when it
+    was written."""
     entries = {path.name: {"bytes": path.stat().st_size, "sha256": digest(path)}
-               for path in sorted(Path(folder).iterdir()) if path.is_file() and path.name != MANIFEST}
+               for path in sorted(Path(folder).iterdir())
+               if path.is_file() and path.name != MANIFEST and path.suffix != ".png"}
     text = json.dumps({"inputs": inputs, "files": entries}, indent=1) + "\n"
     partial = Path(folder) / (MANIFEST + ".partial")
     with open(partial, "w") as handle:

@@ -6,19 +6,23 @@ import math
 import os
 from pathlib import Path
 
-# Off-screen rendering through EGL; an exported but empty value would break it.
-if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
-    os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+import numpy as np
 
-import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
+from orchestrate.plots import pyplot, save
+from orchestrate.results import Result, load_result
 
-from orchestrate.plots import pyplot, save  # noqa: E402
-from orchestrate.results import Result  # noqa: E402
 
-plt = pyplot()
+def pyvista():
+    """pyvista, off screen through EGL (imported when an image is made: it costs a second)."""
+    # an exported but empty VTK_DEFAULT_OPENGL_WINDOW would break the EGL window
+    if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+    import pyvista as pv
 
-pv.OFF_SCREEN = True
+    pv.OFF_SCREEN = True
+    return pv
+
+
 # VTK's bundled font has no Greek letters, so the image titles spell them out.
 FIELD_TITLES = {"vonMises": "von Mises stress (N/m^2)", "zeta": "damage zeta (1 = sound)"}
 
@@ -33,8 +37,10 @@ def nice_magnification(max_displacement: float, size: float) -> float:
     return mantissa * 10 ** exponent
 
 
-def deformed_bodies(result: Result, time: float | None = None) -> tuple[list[pv.UnstructuredGrid], float]:
-    """Both bodies' triangles, warped by a round magnification of u; returns (bodies, factor)."""
+def deformed_bodies(result: Result, time: float | None = None) -> tuple[list, float]:
+    """Both bodies' triangles (pyvista grids), warped by a round magnification of u; returns
+    (bodies, factor)."""
+    pv = pyvista()
     files = result.outputs[-1][1] if time is None else dict(result.outputs)[time]
     bodies = [pv.read(files[part]).extract_cells_by_type(pv.CellType.TRIANGLE) for part in ("body1", "body2")]
     size = max(np.ptp(np.vstack([b.points for b in bodies]), axis=0))
@@ -59,7 +65,7 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
     Returns the colour range each colour bar shows, read back from the rendered scene."""
     bodies, factor = deformed_bodies(result)
     time = result.outputs[-1][0]
-    plotter = pv.Plotter(shape=(1, 2), window_size=window, off_screen=True)
+    plotter = pyvista().Plotter(shape=(1, 2), window_size=window, off_screen=True)
     plotter.set_background("white")
     for column, field in enumerate(("vonMises", "zeta")):
         plotter.subplot(0, column)
@@ -87,7 +93,7 @@ def plot_contact_line(result: Result, target: Path) -> Path:
     line = result.fields("contact")
     s = np.linalg.norm(line.points - line.points[0], axis=1)
     beta = line.cell_data["beta"][0]
-    figure, axes = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True)
+    figure, axes = pyplot().subplots(3, 1, figsize=(7, 7.5), sharex=True)
     axes[0].stairs(beta, s, baseline=None, color="tab:green")
     axes[0].ticklabel_format(axis="y", useOffset=False)
     axes[0].set_ylabel("bonding β")
@@ -109,7 +115,7 @@ def plot_history(result: Result, target: Path) -> Path:
               ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
               ("forces on body 1 across Γ_C (N/m)", ["contactForce", "forceX1", "forceY1"]),
               ("closed length (m)", ["contactLength"])]
-    figure, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
+    figure, axes = pyplot().subplots(3, 2, figsize=(10, 8), sharex=True)
     for axis, (title, columns) in zip(axes.flat, panels):
         for column in columns:
             axis.plot(h["t"], h[column], label=column)
@@ -136,7 +142,7 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     times = np.array(times)
     time_edges = np.concatenate([[times[0] - (times[1] - times[0]) / 2], (times[1:] + times[:-1]) / 2,
                                  [times[-1] + (times[-1] - times[-2]) / 2]])
-    figure, axis = plt.subplots(figsize=(7, 4.2))
+    figure, axis = pyplot().subplots(figsize=(7, 4.2))
     image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=0, vmax=1, shading="flat")
     figure.colorbar(image, ax=axis, label="bonding β")
     axis.set_xlabel("position along Γ_C (m)")
@@ -159,3 +165,20 @@ def render_all(result: Result, folder: Path) -> list[Path]:
     if sum("contact" in files for _, files in result.outputs) >= 3:
         images.append(plot_bonding_evolution(result, folder / "beta_xt.png"))
     return images + [plot_history(result, folder / "history.png")]
+
+
+# --- command line ---------------------------------------------------------------------------
+
+NAME, HELP = "render", "images of a run folder"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
+    parser.add_argument("--out", help="where to write the images (default: the run folder)")
+
+
+def command(options) -> int:
+    result = load_result(options.folder)
+    for path in render_all(result, Path(options.out or options.folder)):
+        print(f"wrote {path}")
+    return 0

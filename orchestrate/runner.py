@@ -337,3 +337,33 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
         "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
         "scene": scene.model_dump(mode="json"),
     }
+
+
+# --- command line ---------------------------------------------------------------------------
+
+NAME, HELP = "run", "run a scene (TOML) into a folder"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
+    parser.add_argument("--out", help="output folder (default results/<scene name>)")
+    parser.add_argument("--force", action="store_true", help="replace the output folder if it holds a run")
+    parser.add_argument("--allow-unstable", action="store_true",
+                        help="run even when the time step exceeds an explicit stability bound (MODEL.md §7)")
+
+
+def command(options) -> int:
+    import sys
+
+    from orchestrate.cli import parse_assignments
+
+    overrides = parse_assignments(options.set, "--set")
+    if options.allow_unstable:
+        overrides["solver.allowUnstable"] = True
+    result = run(options.scene, options.out, overrides, force=options.force, progress=sys.stderr.isatty())
+    final = result.history
+    print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
+          f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
+    return 0

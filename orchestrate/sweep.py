@@ -192,3 +192,35 @@ def write_table(path: Path, rows: list[dict], keys: list[str]) -> None:
         writer.writeheader()
         writer.writerows(rows)
     partial.replace(path)
+
+
+# --- command line ---------------------------------------------------------------------------
+
+NAME, HELP = "sweep", "run the cartesian product of overrides on dask.distributed"
+
+
+def add_arguments(parser) -> None:
+    from orchestrate.cli import positive
+
+    parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
+    parser.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2,...",
+                        help="values of one scene key, e.g. --grid time.N=20,40 --grid glue.gammaNu=0,1")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
+    parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
+    parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
+    parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
+
+
+def command(options) -> int:
+    import sys
+
+    from orchestrate.cli import parse_assignments
+
+    rows = sweep(options.scene, parse_grid(options.grid), options.out, parse_assignments(options.set, "--set"),
+                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
+    width = max(len(row["folder"]) for row in rows)
+    for row in rows:
+        figure = f"normV(T) = {row['normV']:.6g}" if row.get("normV") is not None else row.get("error", "")
+        print(f"{row['folder']:<{width}}  {row['status']:<18}  {figure}")
+    print(f"table: {Path(options.out) / 'sweep.csv'}")
+    return 0 if all(row["status"] in ("completed", "skipped (complete)") for row in rows) else 1

@@ -25,3 +25,24 @@ def test_script_compiles(script):
 def test_scene_compiles_with_the_driver(scene):
     done = run_script(MAIN, ["-jc"], defines={"SCENE": scene.name}, cwd=scene.parent)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+
+
+def test_libraries_do_nothing_when_included(tmp_path):
+    """tests/edp/libraries.edp includes every library after the parameters are read: they define
+    functions and macros only, so it prints nothing and writes nothing."""
+    done = run_script(REPO / "tests" / "edp" / "libraries.edp", [], cwd=tmp_path)
+    assert done.returncode == 0 and done.stdout.strip() == "" and done.stderr.strip() == ""
+    assert not any(tmp_path.iterdir())
+    included = set((REPO / "tests" / "edp" / "libraries.edp").read_text().split('lib/')[1:])
+    assert {name.split('"')[0] for name in included} == {path.name for path in (REPO / "edp" / "lib").glob("*.idp")}
+
+
+def test_the_driver_declares_no_state_and_its_loop_is_the_scheme():
+    """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is MODEL.md §6's steps."""
+    text = (REPO / "edp" / "main.edp").read_text()
+    assert "real[int]" not in text and "Vh1" not in text
+    loop = text[text.index("for (int n = 1; n <= nSteps; n++) {"):]
+    loop = loop[:loop.index("\n}\n")].splitlines()[1:]
+    assert len(loop) <= 16, loop
+    for step in ("contactStep", "damageStep(1)", "damageStep(2)", "bondingStep", "advanceState"):
+        assert any(line.strip().startswith(step) for line in loop), step

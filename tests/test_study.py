@@ -5,7 +5,7 @@ import csv
 import pytest
 
 from orchestrate.freefem import REPO
-from orchestrate.study import convergence, rates
+from orchestrate.convergence import convergence, rates
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,181 @@
+"""How the studies write their figures down: the CSV tables and the Markdown reports of the
+convergence study, the stability study and the benchmark (results/convergence, results/stability,
+results/bench). The measuring is in convergence.py, stability.py and bench.py."""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+
+def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
+    """A table with the given columns (default: the first row's keys), other keys ignored."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]), extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def number(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.3e}" if value and (abs(value) < 1e-2 or abs(value) >= 1e4) else f"{value:.4g}"
+    return str(value)
+
+
+def reproduce(command: str) -> list[str]:
+    return ["Reproduce (from the repository root):", "", "```sh", command, "```", ""]
+
+
+# --- convergence ----------------------------------------------------------------------------
+
+QUANTITIES = ("errorV", "errorZeta", "errorBeta")
+LABELS = {"errorV": "‖u − u_ref‖_V", "errorZeta": "‖ζ − ζ_ref‖_L2", "errorBeta": "‖β − β_ref‖_L2(Γ_C)"}
+THEORY = {"lockstep": 0.75, "space": 0.75, "time": 1.0}  # Theorem 2.1: c(h^{3/4} + k)
+
+
+def convergence_report(table: list[dict], observed: dict[str, dict], command: str) -> str:
+    """The convergence study's README: per ladder its errors and the observed rates (`observed`:
+    ladder → quantity → {"reference", "successive"})."""
+    lines = ["# Convergence study", "", *reproduce(command),
+             "Errors are maxima over the shared instants of the distance to the finest level of each ladder "
+             "(the reference); *next* is the distance to the next finer level. Norms as in Theorem 2.1 of the seed: "
+             "‖·‖_V = (Σ_ℓ ∫ ε:ε)^½ for u, L² for ζ on the bodies and for β on Γ_C. Nested structured meshes make "
+             "every norm exact (edp/tools/errors.edp). The instants are the coarsest level's, shared by all levels.",
+             "",
+             "Reading the rates: an error against the reference is biased low at the level next to it, because "
+             "the reference has an error of its own, so rates against the reference come out high at the fine end; "
+             "distances between successive levels decay at the true rate. Both are given; Theorem 2.1 of the seed "
+             "predicts at least h^{3/4} in space and k in time.", ""]
+    for ladder in ("lockstep", "time", "space"):
+        rows = [row for row in table if row["ladder"] == ladder]
+        if not rows:
+            continue
+        lines += [f"## {ladder}", "", "| n1 | n2 | N | " + " | ".join(LABELS[q] for q in QUANTITIES)
+                  + " | rel. V error | next V | next ζ | next β | solver s |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for row in rows:
+            values = [row.get(key) for key in ("errorV", "errorZeta", "errorBeta", "relativeErrorV", "nextV", "nextZeta",
+                                               "nextBeta")]
+            cells = ["reference" if v is None else number(v) for v in values]
+            lines.append(f"| {row['n1']} | {row['n2']} | {row['N']} | " + " | ".join(cells) + f" | {row['seconds']:.1f} |")
+        size = "k" if ladder == "time" else "h"
+        lines += ["", f"Observed rates in {size} over the finest three levels (theory: {size}^{THEORY[ladder]:g}):", ""]
+        for quantity in QUANTITIES:
+            pair = observed[ladder][quantity]
+            lines.append(f"- {LABELS[quantity]}: {pair['reference']:.2f} against the reference, "
+                         f"{pair['successive']:.2f} from successive differences")
+        lines.append("")
+    return "\n".join(lines)
+
+
+# --- stability ------------------------------------------------------------------------------
+
+def bracket(row: dict) -> str:
+    """The columns a stability table shares: predicted | observed (bracket) | difference | N | T."""
+    return (f"{row['predicted']:.5g} | {row['observed']:.5g} ({row['stableK']:.5g} – {row['unstableK']:.5g}) | "
+            f"{100 * row['difference']:+.2f} % | {row['stableN']} | {row['T']:.4g}")
+
+
+def certain_bound(row: dict) -> float:
+    """2/(ρ + ρ_τ) from an elastic row's 2/ρ and 2/ρ_τ: below it the step is stable for certain."""
+    return 2 / (2 / row["predicted"] + 2 / row["glueBound"])
+
+
+def glue_columns(row: dict) -> str:
+    """2/ρ_τ and the certain bound 2/(ρ + ρ_τ), for an elastic row run with tangential glue."""
+    if not row["glueBound"]:
+        return "– | –"
+    return f"{row['glueBound']:.4g} | {certain_bound(row):.5g}"
+
+
+def within_theory(row: dict) -> bool:
+    """Does the observed bracket [stableK, unstableK] meet [2/(ρ + ρ_τ), min(2/ρ, 2/ρ_τ)]?"""
+    return row["stableK"] <= min(row["predicted"], row["glueBound"]) and row["unstableK"] >= certain_bound(row)
+
+
+def stability_report(rows: list[dict], command: str) -> str:
+    """The stability study's README: predicted and observed bounds of the explicit terms."""
+    elastic = [row for row in rows if row["term"] == "elastic"]
+    glue = [row for row in rows if row["term"] == "tangential glue"]
+    lines = ["# Stability of the explicit scheme: predicted and observed bound on the time step", "",
+             *reproduce(command),
+             "Observed: the smallest stable N by bisection, loads held after t = 1, horizon T = max(5, 200 k*) "
+             "(unstable: the run stops on divergence, or ‖u‖_V(T) > 10 ‖u‖_V(1)); the threshold lies between "
+             "T/N and T/(N − 1), whose midpoint is given.", "",
+             "## Elastic term", "",
+             "The paper's scene on coarse meshes (body 1 with 6 elements per side, body 2 with 8) with E varied "
+             "in both bodies. Predicted: k* = 2/ρ, ρ = max(bG/η, (2aG + bG)/(2μ + η)) (MODEL.md §7, "
+             "edp/lib/stability.idp). With damage on, ζ < 1 lowers the effective ρ, so an unstable step can be "
+             "masked; λ_u = 0 keeps ζ = 1. The scene's tangential glue (p_τ = 1) adds its own bound 2/ρ_τ; "
+             "the true threshold lies between 2/(ρ + ρ_τ) and min(2/ρ, 2/ρ_τ) (docs/model-choices.md, "
+             "\"Explicit glue\"), which matters where ρ_τ is not small against ρ (soft bodies).", "",
+             "| E/η | damage | predicted k* | observed k* (bracket) | difference | smallest stable N | T | 2/ρ_τ | 2/(ρ + ρ_τ) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {row['parameter']:.3g} | {'on' if row['damage'] == 'on' else 'λ_u = 0'} | {bracket(row)} | "
+              f"{glue_columns(row)} |" for row in elastic]
+    undamaged = [row for row in elastic if row["damage"] == "off"]
+    worst = max(abs(row["difference"]) for row in undamaged)
+    lines += ["", f"Largest difference with λ_u = 0: {100 * worst:.2f} %."]
+    with_glue = [row for row in undamaged if row["glueBound"]]
+    if with_glue:
+        inside = sum(within_theory(row) for row in with_glue)
+        lines += [f"With λ_u = 0, {inside} of {len(with_glue)} observed brackets meet the theory's interval "
+                  "[2/(ρ + ρ_τ), min(2/ρ, 2/ρ_τ)]."]
+    if glue:
+        lines += ["", "## Tangential glue term", "",
+                  "scenes/shear.toml (n = 8/11) with γ_ν = 0 (the glue never debonds), E = 10 in both bodies (the "
+                  "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
+                  "2/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration (docs/model-choices.md, \"Explicit glue\").", "",
+                  "| p_τ | predicted 2/ρ_τ | observed (bracket) | difference | smallest stable N | T |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| {row['parameter']:.4g} | {bracket(row)} |" for row in glue]
+        worst = max(abs(row["difference"]) for row in glue)
+        lines += ["", f"Largest difference: {100 * worst:.2f} %."]
+    return "\n".join(lines) + "\n"
+
+
+# --- benchmark ------------------------------------------------------------------------------
+
+def bench_report(rows: list[dict], solvers: list[dict], command: str, check_reference: bool,
+                 gains: list[str]) -> str:
+    """The benchmark's README: the time split and errors of every run, the graded meshes' gain at
+    equal error (`gains`, already written out), and the sparse solvers on the finest level."""
+    lines = ["# Benchmark: run time against error, the paper's scene", "", *reproduce(command),
+             "Times in seconds: *wall* = meshing (empty cache) + FreeFem++ (start-up, set-up, time loop, output); "
+             "set-up, loop and output are FreeFEM's own CPU clock, and start-up is FreeFem++'s wall time less that "
+             "clock (negative when multithreaded BLAS puts more CPU than wall time into the factorizations). "
+             "*overhead* = time per step / the back-substitutions a step cannot avoid (one per body for u, one per "
+             "body for ζ), timed in the same process. *error* = "
+             "‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V against one reference for every variant (the row *reference*: the "
+             "graded mesh one level finer than the finest measured graded level, with twice its steps); each run is "
+             "interpolated onto the reference's meshes. Timings on this virtual machine drift by ±20 % between runs "
+             "minutes apart: each measured level is the fastest of 3 runs; the reference runs once."
+             + (" *error vs check*: the same against the row *reference check* (see below), on its meshes."
+                if check_reference else ""), ""]
+    header = ["variant", "level", "nodes (body 1, 2)", "N", "wall", "start-up", "meshing", "set-up", "loop", "output",
+              "overhead", "contact it/step", "error"] + (["error vs check"] if check_reference else [])
+    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        cells = [row["variant"], row["level"], f"{row['nodes1']}, {row['nodes2']}", row["N"]]
+        cells += [f"{row[key]:.3f}" for key in ("wall", "startup", "meshing", "setup", "loop", "output")]
+        cells += [f"{row['overheadRatio']:.2f}", f"{row['contactIters']:.2f}"]
+        cells.append(f"{100 * row['errorToReference']:.2f} %" if "errorToReference" in row else "reference")
+        if check_reference:
+            cells.append(f"{100 * row['errorToCheck']:.2f} %" if "errorToCheck" in row else "reference")
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    check = next((row for row in rows if row["variant"] == "reference check"), None)
+    if check:
+        reference = next(r for r in rows if r["variant"] == "reference")
+        lines += ["", f"Reference check: a uniform run finer than every measured level ({check['nodes1']} + "
+                  f"{check['nodes2']} nodes, N = {check['N']}) lies {100 * check['errorToReference']:.2f} % from the "
+                  f"reference (the reference {100 * reference['errorToCheck']:.2f} % from it, measured on its meshes). "
+                  "Both have errors of their own, so errors in the table much below this figure are not resolved; "
+                  "where the two error columns differ, the truth lies between."]
+    lines += ["", "Graded meshes against uniform ones at equal error (the uniform wall time over the graded wall time, "
+              "both work–precision curves interpolated in log–log):", "", *gains]
+    lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
+              "the factorization):", "",
+              "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]
+    for row in solvers:
+        lines.append(f"| {row['matrix']} | {row['dofs']} | {row['solver']} | {row['factorSeconds'] * 1000:.1f} ms | "
+                     f"{row['solveSeconds'] * 1000:.2f} ms |")
+    return "\n".join(lines) + "\n"

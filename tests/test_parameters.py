@@ -1,0 +1,117 @@
+"""One source for every parameter: the driver and the scene schema both read edp/lib/parameters.md,
+and here each side is held to the table — the defaults a default run uses, and the accepted
+range of every bounded parameter, value by value at its bounds."""
+import json
+
+import pytest
+
+from orchestrate import Scene, SceneError, run
+from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.parameters import PARAMETERS
+
+CHECK = REPO / "edp" / "tools" / "check.edp"
+MINIMAL = """
+[body1.mesh]
+geo = "meshes/paper_body1.geo"
+n = 6
+[[body1.boundary]]
+type = "clamped"
+label = 5
+[body2.mesh]
+geo = "meshes/paper_body2.geo"
+n = 8
+[[body2.boundary]]
+type = "clamped"
+label = 3
+[output]
+images = false
+"""
+
+
+def expected(parameter):
+    """The table's default as params_used.json writes it (flags and integers as numbers)."""
+    value = parameter.value()
+    return int(value) if isinstance(value, bool) else value
+
+
+def test_a_scene_that_sets_nothing_runs_with_the_table_defaults(tmp_path):
+    scene = tmp_path / "minimal.toml"
+    scene.write_text(MINIMAL)
+    used = json.loads((run(scene, tmp_path / "run").folder / "params_used.json").read_text())
+    for parameter in PARAMETERS.values():
+        if parameter.scene == "-":
+            continue
+        for name in parameter.driver_names():
+            assert used[name] == expected(parameter), name
+
+
+def test_the_driver_by_hand_runs_with_the_table_defaults(tmp_path):
+    assert run_script(MAIN, ["-out", tmp_path]).returncode == 0
+    used = json.loads((tmp_path / "params_used.json").read_text())
+    for parameter in PARAMETERS.values():
+        for name in parameter.driver_names():
+            if name not in ("out",):
+                assert used[name] == expected(parameter), name
+
+
+def test_help_lists_every_parameter_with_its_default_and_exits_0():
+    done = run_script(MAIN, ["-help"])
+    assert done.returncode == 0
+    for parameter in PARAMETERS.values():
+        for name in parameter.driver_names():
+            assert f"  -{name} ({parameter.type}, default '{parameter.default}'" in done.stdout, name
+
+
+def probes(parameter):
+    """Values at and just beyond each finite bound of a parameter, with whether the range takes
+    them (and, for an open bound, one just inside)."""
+    bounds = parameter.bounds
+    for key, bound in bounds.items():
+        outward = -1 if key in ("ge", "gt") else 1
+        step = 1 if parameter.type == "int" else max(abs(bound), 1.0) * 1e-9
+        yield bound, key in ("ge", "le")
+        yield bound + outward * step, False
+        if key in ("gt", "lt"):
+            yield bound - outward * step, True
+
+
+CASES = [(parameter.name, value, inside) for parameter in PARAMETERS.values() for value, inside in probes(parameter)]
+
+
+@pytest.mark.parametrize("name, value, inside", CASES, ids=[f"{n}={v!r}" for n, v, _ in CASES])
+def test_the_driver_and_the_scene_take_the_same_range(name, value, inside):
+    parameter = PARAMETERS[name]
+    flag = parameter.driver_names()[0]
+    text = str(value) if parameter.type == "int" else repr(float(value))
+    done = run_script(CHECK, [f"-{flag}", text])
+    assert (done.returncode == 0) == inside, (flag, text, done.error_line)
+    if not inside:
+        assert done.returncode == 3 and flag in done.error_line
+    if parameter.scene != "-":
+        key = ("body1." if parameter.scope == "body" else "") + parameter.scene
+        if inside:
+            Scene.load(REPO / "scenes" / "paper.toml", {key: value})
+        else:
+            with pytest.raises(SceneError, match=key.replace(".", r"\.")):
+                Scene.load(REPO / "scenes" / "paper.toml", {key: value})
+
+
+@pytest.mark.parametrize("name", [p.name for p in PARAMETERS.values() if p.type == "choice"])
+def test_choices_are_the_same_on_both_sides(name):
+    parameter = PARAMETERS[name]
+    for choice in parameter.choices:
+        assert run_script(CHECK, [f"-{name}", choice]).returncode == 0
+        Scene.load(REPO / "scenes" / "paper.toml", {parameter.scene: choice})
+    assert run_script(CHECK, [f"-{name}", "nonesuch"]).returncode == 3
+    with pytest.raises(SceneError):
+        Scene.load(REPO / "scenes" / "paper.toml", {parameter.scene: "nonesuch"})
+
+
+def test_every_scene_key_of_the_table_is_a_scene_field():
+    scene = Scene.load(REPO / "scenes" / "paper.toml").model_dump(mode="json")
+    for parameter in PARAMETERS.values():
+        if parameter.scene != "-":
+            node = scene["body1"] if parameter.scope == "body" else scene
+            for part in parameter.scene.split("."):
+                assert part in node, (parameter.name, parameter.scene)
+                node = node[part]
