@@ -147,12 +147,14 @@ def stop_group(process: subprocess.Popen) -> None:
         pass
 
 
-def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str, str] | None = None) -> Completed:
-    """Run a FreeFEM script in folder `cwd` with its output (stdout and stderr) written to `log`.
+def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str, str] | None = None,
+               append: bool = False) -> Completed:
+    """Run a FreeFEM script in folder `cwd` with its output (stdout and stderr) written to `log`
+    (after what it holds, with `append`).
     An exception here (KeyboardInterrupt included) ends its process group. Signals Python ignores
     (SIGXFSZ among them) are restored for the child, so a file-size limit stops FreeFem++ instead
     of letting its writes fail silently."""
-    with open(log, "w") as sink:
+    with open(log, "a" if append else "w") as sink:
         process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd, env=freefem_env(), text=True,
                                    stdout=sink, stderr=subprocess.STDOUT, preexec_fn=own_group_dying_with_parent)
         try:

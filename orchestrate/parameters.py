@@ -90,9 +90,10 @@ def field(name: str, **extra):
 
 
 def scene_value(data: dict, dotted: str):
+    """The value at a dotted key of a scene's dump (a list element by its index: boundary.1.fy)."""
     node = data
     for part in dotted.split("."):
-        node = node[part]
+        node = node[int(part)] if isinstance(node, list) else node[part]
     return node
 
 

@@ -12,6 +12,11 @@ digest of the inputs) is written, last. A failure leaves `<out>.failed` with run
 an interruption (SIGINT, SIGTERM, SIGHUP) ends FreeFem++'s and gmsh's process groups and leaves
 `<out>.partial` with a file INTERRUPTED. `--force` replaces only a run folder, never through a
 symbolic link.
+
+Restart. The driver checkpoints its state (edp/lib/checkpoint.idp, every output.checkpointSeconds
+of wall time by default); `resume=True` (`run --resume`, and every sweep) continues the run in
+`<out>.partial` from its newest checkpoint when that folder was made from the same inputs
+(inputs.json), and gives the files an uninterrupted run gives, to the bit.
 """
 from __future__ import annotations
 
@@ -117,8 +122,9 @@ def refuse_existing(out: Path, force: bool) -> None:
 
 
 @contextmanager
-def claimed(out: Path):
-    """`<out>.partial`, emptied and held under an exclusive lock until the block ends."""
+def claimed(out: Path, keep: bool = False):
+    """`<out>.partial`, held under an exclusive lock until the block ends; emptied unless `keep`
+    says its contents are to be continued (keep(partial) -> bool, asked under the lock)."""
     partial = out.with_name(out.name + ".partial")
     if partial.is_symlink() or (os.path.lexists(partial) and not partial.is_dir()):
         raise RunError(f"{partial} exists and is not a run's folder (a file or a link): remove it or choose another --out")
@@ -132,8 +138,9 @@ def claimed(out: Path):
                 from None
         if os.fstat(handle).st_ino != os.stat(partial, follow_symlinks=False).st_ino:
             raise RunError(f"{partial} was replaced while this run claimed it: another run is writing {out}")
-        for path in partial.iterdir():  # what an earlier, crashed run left
-            shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+        if not (keep and keep(partial)):
+            for path in partial.iterdir():  # what an earlier, crashed run left
+                shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
         yield partial
     finally:
         os.close(handle)
@@ -147,11 +154,18 @@ def solver_sources_digest() -> str:
     return sha.hexdigest()
 
 
+# Scene keys that change no result: when a run checkpoints, and whether it makes images.
+RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images")
+
+
 def inputs_of(scene: Scene) -> dict:
-    """Everything a run's result depends on: the scene as validated, the solver's sources and what
-    determines each body's mesh (committed file content, or .geo sources, numbers and gmsh
-    version). A run folder whose manifest holds the same digest is the same run."""
-    parts = {"scene": hashlib.sha256(json.dumps(scene.model_dump(mode="json"), sort_keys=True).encode()).hexdigest(),
+    """Everything a run's result depends on: the scene as validated (RESULT_FREE aside), the
+    solver's sources and what determines each body's mesh (committed file content, or .geo
+    sources, numbers and gmsh version). A run folder whose manifest holds the same digest is the
+    same run."""
+    data = scene.model_dump(mode="json")
+    data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
+    parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
              "solver": solver_sources_digest(),
              "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine)
                         for body in (scene.body1, scene.body2)]}
@@ -159,12 +173,29 @@ def inputs_of(scene: Scene) -> dict:
     return parts
 
 
+def resumable(partial: Path, inputs: dict, force: bool) -> bool:
+    """Does `<out>.partial` hold a checkpoint of a run of these inputs? A checkpoint of other
+    inputs is refused (or, with force, discarded: the run starts over)."""
+    checkpoints = [path for path in (partial / "checkpoint-a.txt", partial / "checkpoint-b.txt") if path.is_file()]
+    if not checkpoints:
+        return False
+    try:
+        same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
+    except (OSError, ValueError, KeyError):
+        same = False
+    if not same and not force:
+        raise RunError(f"{partial} holds a checkpoint of a run of other inputs: run without --resume to start over, "
+                       "or with --force to discard it")
+    return same
+
+
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
-        force: bool = False, progress: bool = False, mesh_cache: Path | None = None,
+        force: bool = False, resume: bool = False, progress: bool = False, mesh_cache: Path | None = None,
         solver_flags: tuple = ()) -> Result:
     """Run a scene (a Scene or a .toml path, with dotted-key overrides) into folder `out`.
-    mesh_cache: another mesh cache folder (the benchmark's, to time meshing); solver_flags:
-    extra driver flags that change no result (e.g. -measureSolves 10)."""
+    resume: continue the interrupted run in `<out>.partial` from its newest checkpoint when it has
+    the same inputs; mesh_cache: another mesh cache folder (the benchmark's, to time meshing);
+    solver_flags: extra driver flags that change no result (e.g. -measureSolves 10)."""
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
     require_plain_path(REPO, "the repository's location")
@@ -174,15 +205,24 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     inputs = inputs_of(scene)
     failed = out.with_name(out.name + ".failed")
     started = time.perf_counter()
-    with claimed(out) as partial:
+    restart = False
+
+    def keep(partial: Path) -> bool:
+        nonlocal restart
+        restart = resume and resumable(partial, inputs, force)
+        return restart
+
+    with claimed(out, keep) as partial:
         try:
             refuse_existing(out, force)  # again, now that no other run can take the folder
         except RunError:
             partial.rmdir()
             raise
+        (partial / "INTERRUPTED").unlink(missing_ok=True)
+        (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():
-                summary = build(scene, partial, progress, mesh_cache, solver_flags)
+                summary = build(scene, partial, progress, mesh_cache, solver_flags, restart)
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
                 (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
                 write_manifest(partial, inputs)
@@ -283,8 +323,9 @@ def follow_history(path: Path, bar, done: threading.Event) -> None:
             rows = now
 
 
-def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple):
-    """FreeFem++ on the run folder, with a progress bar fed by history.csv."""
+def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple, restart: bool):
+    """FreeFem++ on the run folder (from its checkpoint with `restart`), with a progress bar fed
+    by history.csv."""
     bar, done, watcher = None, threading.Event(), None
     if progress:
         from tqdm import tqdm
@@ -292,7 +333,8 @@ def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple):
         watcher = threading.Thread(target=follow_history, args=(folder / "history.csv", bar, done), daemon=True)
         watcher.start()
     try:
-        return run_logged(MAIN, ["-out", ".", *solver_flags], folder / "run.log", folder, defines={"SCENE": "scene.idp"})
+        flags = ["-out", ".", *(["-restart", "."] if restart else []), *solver_flags]
+        return run_logged(MAIN, flags, folder / "run.log", folder, defines={"SCENE": "scene.idp"}, append=restart)
     finally:
         done.set()
         if watcher is not None:
@@ -300,8 +342,10 @@ def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple):
             bar.close()
 
 
-def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = ()) -> dict:
-    """Everything of a run inside `folder`; returns the summary (without the total wall time)."""
+def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = (),
+          restart: bool = False) -> dict:
+    """Everything of a run inside `folder` (continued from its checkpoint with `restart`);
+    returns the summary (without the total wall time)."""
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
@@ -310,7 +354,7 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
     (folder / "scene.idp").write_text(to_freefem_scene(scene))
 
     clock = time.perf_counter()
-    done = solve(scene, folder, progress, solver_flags)
+    done = solve(scene, folder, progress, solver_flags, restart)
     timing["solver"] = time.perf_counter() - clock
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
@@ -350,6 +394,8 @@ def add_arguments(parser) -> None:
                         help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
     parser.add_argument("--out", help="output folder (default results/<scene name>)")
     parser.add_argument("--force", action="store_true", help="replace the output folder if it holds a run")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue an interrupted run of the same inputs from its last checkpoint (in <out>.partial)")
     parser.add_argument("--allow-unstable", action="store_true",
                         help="run even when the time step exceeds an explicit stability bound (MODEL.md §7)")
 
@@ -362,7 +408,8 @@ def command(options) -> int:
     overrides = parse_assignments(options.set, "--set")
     if options.allow_unstable:
         overrides["solver.allowUnstable"] = True
-    result = run(options.scene, options.out, overrides, force=options.force, progress=sys.stderr.isatty())
+    result = run(options.scene, options.out, overrides, force=options.force, resume=options.resume,
+                 progress=sys.stderr.isatty())
     final = result.history
     print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")

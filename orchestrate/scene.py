@@ -235,6 +235,8 @@ class Output(Strict):
     times: Literal["final", "all", "none"] | Annotated[list[float], Field(min_length=1)] = PARAMETERS["outTimes"].default
     fields: list[Literal["bodies", "stress", "contact", "state"]] = PARAMETERS["outFields"].default.split(",")
     images: bool = Field(True, strict=True)
+    checkpointEvery: int = field("checkpointEvery")
+    checkpointSeconds: float = field("checkpointSeconds")
 
 
 class Scene(Strict):

@@ -62,7 +62,7 @@ def run_one(scene_data: dict, folder: str) -> dict:
     from orchestrate.runner import run
 
     try:
-        run(Scene.model_validate(scene_data), folder, force=True)
+        run(Scene.model_validate(scene_data), folder, force=True, resume=True)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
     return row_of(Path(folder), "completed")
@@ -95,12 +95,22 @@ def make_client(workers: int, scheduler: str | None):
     return Client(cluster)
 
 
+def resolved_values(scene: Scene, assignment: dict) -> dict:
+    """The assignment's values as the validated scene holds them (1 for a real is 1.0), so that a
+    folder is named by what runs, however the value was written."""
+    from orchestrate.parameters import scene_value
+
+    data = scene.model_dump(mode="json")
+    return {key: scene_value(data, key) for key in assignment}
+
+
 def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | None = None) -> tuple[list, list]:
     """Rows for runs of the scene with each assignment of overrides (on top of `base`), in folders
-    of `out` named by the assignment, and the jobs among them still to run."""
+    of `out` named by the values that run, and the jobs among them still to run. Two combinations
+    that make the same run are refused."""
     from orchestrate.runner import inputs_of
 
-    rows, jobs = [], []
+    rows, jobs, seen = [], [], {}
     for assignment in assignments:
         row = {**assignment, "folder": folder_name(assignment)}
         rows.append(row)
@@ -109,8 +119,13 @@ def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | Non
         except SceneError as error:
             row.update(status="invalid", error=" | ".join(str(error).splitlines()[1:]) or str(error))
             continue
+        row["folder"] = folder_name(resolved_values(resolved, assignment))
+        digest = inputs_of(resolved)["digest"]
+        if digest in seen:
+            raise SceneError(f"--grid: {seen[digest]} and {assignment} are the same run: list each value once")
+        seen[digest] = assignment
         folder = out / row["folder"]
-        if completed_before(folder, inputs_of(resolved)["digest"]):
+        if completed_before(folder, digest):
             row.update(row_of(folder, "skipped (complete)"))
         else:
             jobs.append((row, resolved.model_dump(mode="json"), str(folder)))
@@ -146,6 +161,19 @@ def mark_interrupted(jobs) -> None:
             (partial / "INTERRUPTED").write_text("This run was interrupted with its sweep; its files are incomplete.\n")
 
 
+def stop_workers(pids: list[int]) -> None:
+    """End the worker processes of our LocalCluster now (closing it lets their runs go on for
+    seconds); their FreeFem++ children die with them (freefem.py)."""
+    import os
+    import signal
+
+    for pid in pids:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
 def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
     """Run the jobs of `plan` on dask.distributed; each row gets its status and figures.
     An interruption (SIGINT, SIGTERM, SIGHUP) closes the cluster: its workers end, and their
@@ -157,7 +185,10 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
 
     from orchestrate.runner import signals_as_interrupt
 
+    import os
+
     client = make_client(workers, scheduler)
+    own = list(client.run(os.getpid).values()) if client.cluster is not None else []
     interrupted = False
     try:
         with signals_as_interrupt():
@@ -174,6 +205,7 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
                 bar.close()
     except BaseException:
         interrupted = True
+        stop_workers(own)  # our own workers end at once, and their FreeFem++ with them
         raise
     finally:
         cluster = client.cluster

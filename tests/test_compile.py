@@ -41,7 +41,7 @@ def test_the_driver_declares_no_state_and_its_loop_is_the_scheme():
     """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is MODEL.md §6's steps."""
     text = (REPO / "edp" / "main.edp").read_text()
     assert "real[int]" not in text and "Vh1" not in text
-    loop = text[text.index("for (int n = 1; n <= nSteps; n++) {"):]
+    loop = text[text.index("for (int n = firstStep; n <= nSteps; n++) {"):]
     loop = loop[:loop.index("\n}\n")].splitlines()[1:]
     assert len(loop) <= 16, loop
     for step in ("contactStep", "damageStep(1)", "damageStep(2)", "bondingStep", "advanceState"):

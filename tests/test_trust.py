@@ -167,6 +167,8 @@ def test_a_value_listed_twice_is_refused(tmp_path):
     assert done.returncode == 2 and "400 is listed twice" in done.stderr and "Traceback" not in done.stderr
     done = cli("sweep", PAPER, "--grid", "time.N=40", "--grid", "time.N=80", "--out", tmp_path / "sweep")
     assert done.returncode == 2 and "given twice" in done.stderr
+    done = cli("sweep", PAPER, "--grid", "glue.gammaR=1,1.0", "--out", tmp_path / "sweep")  # one real, written twice
+    assert done.returncode == 2 and "are the same run" in done.stderr
 
 
 # --- 5. a mesh cut short never enters the cache; a bad entry is rebuilt -------------------------

@@ -1,0 +1,172 @@
+"""Restart from a checkpoint (issue "Trustworthy ...", item 13): a run killed at any step and
+continued from its last checkpoint writes history.csv (its stepSeconds timing aside), .vtu, state
+and .pvd files identical to the bit to those of the same run uninterrupted; a checkpoint of other
+inputs is refused; `orchestrate run --resume` and sweeps continue by themselves."""
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from orchestrate import run, sweep
+from orchestrate.freefem import MAIN, REPO, freefem_command, freefem_env, run_script
+from orchestrate.runner import RunError
+
+PAPER = REPO / "scenes" / "paper.toml"
+# The paper's scene over 15 s: damage keeps growing, the contact set and the glue change.
+DRIVER = ["-N", "600", "-T", "15", "-outTimes", "3,6,9,12,15", "-outFields", "bodies,stress,contact,state",
+          "-checkpointEvery", "13"]
+
+
+def rows(folder: Path) -> int:
+    try:
+        return (folder / "history.csv").read_bytes().count(b"\n") - 1
+    except FileNotFoundError:
+        return -1
+
+
+def same_results(first: Path, second: Path) -> None:
+    """Every result file of `first` is in `second` with the same bytes; history.csv without its
+    last column, the measured stepSeconds."""
+    names = sorted(path.name for path in first.iterdir() if path.suffix in (".vtu", ".pvd") or path.name.startswith("state_"))
+    assert names and names == sorted(path.name for path in second.iterdir()
+                                     if path.suffix in (".vtu", ".pvd") or path.name.startswith("state_"))
+    for name in names:
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    history = [[line.rsplit(",", 1)[0] for line in (folder / "history.csv").read_text().splitlines()]
+               for folder in (first, second)]
+    assert history[0] == history[1]
+
+
+def killed_driver(folder: Path, at_rows: int) -> None:
+    """The driver run into `folder`, killed (SIGKILL) once its history has `at_rows` rows."""
+    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)]), cwd=REPO, env=freefem_env(),
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while process.poll() is None and rows(folder) < at_rows and time.time() < deadline:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert 0 < rows(folder) < 600, "the run was to be killed before its end"
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("full") / "run"
+    done = run_script(MAIN, [*DRIVER, "-out", folder])
+    assert done.returncode == 0, done.error_line
+    return folder
+
+
+@pytest.mark.parametrize("kill_at", [20, 140, 333, 545])
+def test_a_killed_run_continued_from_its_checkpoint_is_the_uninterrupted_run(tmp_path, uninterrupted, kill_at):
+    folder = tmp_path / "run"
+    killed_driver(folder, kill_at)
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])
+    assert done.returncode == 0, done.error_line
+    restarted = json.loads((folder / "run.json").read_text())
+    assert 0 < restarted["restartedFrom"] <= kill_at
+    same_results(uninterrupted, folder)
+    assert restarted["files"] == json.loads((uninterrupted / "run.json").read_text())["files"]
+    assert not list(folder.glob("checkpoint-*"))  # a finished run keeps none
+
+
+@pytest.mark.parametrize("flags, words", [
+    (["-E1", "2000"], ["E1 = 1000", "this run has E1 = 2000"]),
+    (["-contactSolver", "bm"], ["contactSolver = 'pdas'"]),
+    (["-n1", "12", "-n2", "16"], ["n1 = 24", "n1 = 12"]),
+])
+def test_a_checkpoint_of_other_inputs_is_refused(tmp_path, flags, words):
+    folder = tmp_path / "run"
+    killed_driver(folder, 100)
+    done = run_script(MAIN, [*DRIVER, *flags, "-out", tmp_path / "other", "-restart", folder])
+    assert done.returncode == 3
+    for word in words:
+        assert word in done.error_line
+
+
+def test_other_loads_are_refused_by_their_fingerprint(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 100)
+    scene = tmp_path / "heavier.idp"
+    scene.write_text((REPO / "edp" / "scenes" / "paper.idp").read_text().replace("(-10*t)", "(-11*t)"))
+    done = run_script(MAIN, [*DRIVER, "-out", tmp_path / "other", "-restart", folder], defines={"SCENE": scene.name},
+                      cwd=tmp_path)
+    assert done.returncode == 3 and "other loads or boundary conditions" in done.error_line
+
+
+def test_a_folder_without_a_whole_checkpoint_is_refused(tmp_path):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "checkpoint-a.txt").write_text("checkpoint 12\nparameters 3\n")  # cut short
+    done = run_script(MAIN, ["-out", tmp_path / "run", "-restart", tmp_path / "empty"])
+    assert done.returncode == 3 and "holds no whole checkpoint" in done.error_line
+
+
+PEEL = REPO / "scenes" / "peel.toml"
+PEEL_SET = {"body1.mesh.n": 40, "body2.mesh.n": 25, "time.N": 400, "output.times": [0.5, 1.0, 1.5, 2.0],
+            "output.checkpointEvery": 9, "output.images": False}
+
+
+def cli_args(overrides: dict) -> list[str]:
+    return [item for key, value in overrides.items()
+            for item in ("--set", f"{key}={json.dumps(value) if not isinstance(value, bool) else str(value).lower()}")]
+
+
+def test_run_resume_continues_a_killed_run_of_the_peel_scene(tmp_path):
+    fresh = run(PEEL, tmp_path / "fresh", PEEL_SET)
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    partial = tmp_path / "run.partial"
+    while process.poll() is None and rows(partial) < 150:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)  # the runner: FreeFem++ dies with it
+    process.wait()
+    assert 0 < rows(partial) < 400
+    resumed = subprocess.run([*command, "--resume"], cwd=REPO, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    assert json.loads((out / "run.json").read_text())["restartedFrom"] > 0
+    same_results(fresh.folder, out)
+    assert "restart: from step" in (out / "run.log").read_text()
+
+
+def test_resume_refuses_a_partial_run_of_other_inputs(tmp_path):
+    out = tmp_path / "run"
+    partial = tmp_path / "run.partial"
+    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while process.poll() is None and rows(partial) < 50:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    with pytest.raises(RunError, match="checkpoint of a run of other inputs"):
+        run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0}, resume=True)
+    anew = run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0, "time.N": 80}, resume=True, force=True)  # discarded
+    assert "restartedFrom" not in json.loads((anew.folder / "run.json").read_text())
+
+
+def test_an_interrupted_sweep_continues_its_runs_from_their_checkpoints(tmp_path):
+    out = tmp_path / "sweep"
+    base = {**PEEL_SET, "body1.mesh.n": 80, "body2.mesh.n": 50, "time.N": 800, "output.checkpointEvery": 10}
+    command = [sys.executable, "-m", "orchestrate", "sweep", str(PEEL), "--grid", "glue.gammaR=0.5,1", *cli_args(base),
+               "--workers", "2", "--out", str(out)]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+
+    def both_running() -> bool:
+        partials = list(out.glob("*.partial"))
+        return len(partials) == 2 and all(rows(partial) > 30 for partial in partials)
+    while time.time() < deadline and not both_running():
+        time.sleep(0.02)
+    assert both_running()
+    process.send_signal(signal.SIGINT)
+    process.wait(timeout=60)
+    rows_again = sweep(PEEL, {"glue.gammaR": [0.5, 1.0]}, out, base, workers=2)
+    assert [row["status"] for row in rows_again] == ["completed", "completed"]
+    restarted = [json.loads((out / row["folder"] / "run.json").read_text()).get("restartedFrom", 0) for row in rows_again]
+    assert all(step > 0 for step in restarted), restarted
+    fresh = run(PEEL, tmp_path / "fresh", {**base, "glue.gammaR": 1.0})
+    same_results(fresh.folder, out / rows_again[1]["folder"])
