@@ -104,9 +104,12 @@ def output_folder(out: str | Path) -> Path:
 
 
 def is_run_folder(path: Path) -> bool:
-    """A folder a run wrote (what --force may replace), or an empty one."""
+    """A folder a run wrote (what --force may replace: it holds a run's manifest, facts,
+    parameters or summary; the curated results/ folders keep the summary and the images), or an
+    empty one."""
     return path.is_dir() and not path.is_symlink() and (
-        not any(path.iterdir()) or any((path / name).is_file() for name in (MANIFEST, FACTS, "params_used.json")))
+        not any(path.iterdir())
+        or any((path / name).is_file() for name in (MANIFEST, FACTS, "params_used.json", "summary.json")))
 
 
 def refuse_existing(out: Path, force: bool) -> None:
@@ -117,7 +120,7 @@ def refuse_existing(out: Path, force: bool) -> None:
     if not force:
         raise RunError(f"{out} exists: choose another --out or pass --force to replace it")
     if not is_run_folder(out):
-        raise RunError(f"{out} exists and is not a run folder (no manifest.json or run.json): --force replaces only "
+        raise RunError(f"{out} exists and is not a run folder (no manifest.json, run.json or summary.json): --force replaces only "
                        "the folders of runs; choose another --out")
 
 
