@@ -26,6 +26,8 @@ def parse_assignments(items: list[str], option: str) -> dict:
         key, separator, value = item.partition("=")
         if not separator or not key:
             raise SceneError(f"{option} {item!r}: expected key=value, e.g. {option} time.N=80")
+        if key.strip() in assignments:
+            raise SceneError(f"{option} {key.strip()} is given twice: give it once")
         assignments[key.strip()] = parse_value(value.strip())
     return assignments
 

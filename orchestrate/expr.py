@@ -28,7 +28,8 @@ FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "sin
              "min": 2, "max": 2, "pow": 2, "atan2": 2}
 COMPARISONS = ("<=", ">=", "==", "!=", "<", ">")
 MAX_LENGTH = 2000
-MAX_DEPTH = 64
+MAX_DEPTH = 64  # parentheses, calls, signs and powers nested
+MAX_TREE_DEPTH = 200  # and the tree with its chains (a+b+c is a tree two deep): code is written from it recursively
 
 TOKEN = re.compile(r"\s*(?:(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
                    r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
@@ -118,6 +119,8 @@ class Parser:
         tree = self.expression()
         if self.peek() is not None:
             self.fail(f"unexpected '{self.peek()[1]}'")
+        if tree_depth(tree) > MAX_TREE_DEPTH:
+            raise ExpressionError(self.text, 0, f"expression deeper than {MAX_TREE_DEPTH} operations in a chain")
         return tree
 
     def deeper(self):
@@ -205,6 +208,26 @@ class Parser:
             self.take(")")
             return inner
         self.fail(f"unexpected '{text}'")
+
+
+def children(tree) -> tuple:
+    if isinstance(tree, Unary):
+        return (tree.operand,)
+    if isinstance(tree, Binary):
+        return (tree.left, tree.right)
+    if isinstance(tree, Call):
+        return tree.arguments
+    return ()
+
+
+def tree_depth(tree) -> int:
+    """The depth of a tree, without recursion (a long chain a+b+c+... is deep)."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack += [(child, depth + 1) for child in children(node)]
+    return deepest
 
 
 def parse(text: str):

@@ -11,7 +11,6 @@ the script's, and a repository location FreeFEM could not take is refused here.
 """
 from __future__ import annotations
 
-import ctypes
 import os
 import shutil
 import signal
@@ -57,16 +56,13 @@ class SolverError(RuntimeError):
         super().__init__(f"FreeFem++ exit {returncode} ({meaning}): {message}")
 
 
-_LIBC = ctypes.CDLL(None, use_errno=True)
-PR_SET_PDEATHSIG = 1
-
-
-def own_group_dying_with_parent() -> None:
-    """In the child, before exec: a process group of its own (so that it and whatever it starts
-    can be ended together), and SIGKILL when the process that started it dies (a sweep's worker
-    ended by an interruption leaves no FreeFem++ running). Only a system call: safe after fork."""
-    os.setsid()
-    _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+def dying_with_parent(command: list[str]) -> list[str]:
+    """A command that gets SIGKILL when the thread that started it ends (a sweep's worker ended by
+    an interruption, a runner killed, leaves no FreeFem++ or gmsh running): util-linux's setpriv
+    sets that before exec, with no Python code run between fork and exec (which is unsafe in a
+    process with threads). Started with start_new_session, the child also has a process group of
+    its own, so that it and whatever it starts can be ended together."""
+    return ["setpriv", "--pdeathsig", "KILL", "--", *command] if shutil.which("setpriv") else command
 
 
 def require_plain_path(path: Path, what: str) -> None:
@@ -117,9 +113,9 @@ class Completed:
 def run_script(script: Path | str, args: list[str] = (), cwd: Path | None = None,
                timeout: float | None = None, defines: dict[str, str] | None = None) -> Completed:
     """Run a FreeFEM script to completion in its own process group; return code and output."""
-    process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd or REPO, env=freefem_env(),
-                               text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               preexec_fn=own_group_dying_with_parent)
+    process = subprocess.Popen(dying_with_parent(freefem_command(script, args, defines)), cwd=cwd or REPO,
+                               env=freefem_env(), text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               start_new_session=True)
     try:
         stdout, stderr = process.communicate(timeout=timeout)
     except BaseException:
@@ -155,8 +151,9 @@ def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str
     (SIGXFSZ among them) are restored for the child, so a file-size limit stops FreeFem++ instead
     of letting its writes fail silently."""
     with open(log, "a" if append else "w") as sink:
-        process = subprocess.Popen(freefem_command(script, args, defines), cwd=cwd, env=freefem_env(), text=True,
-                                   stdout=sink, stderr=subprocess.STDOUT, preexec_fn=own_group_dying_with_parent)
+        process = subprocess.Popen(dying_with_parent(freefem_command(script, args, defines)), cwd=cwd,
+                                   env=freefem_env(), text=True, stdout=sink, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
         try:
             process.wait()
         except BaseException:

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import REPO, own_group_dying_with_parent, stop_group
+from orchestrate.freefem import REPO, dying_with_parent, stop_group
 
 CACHE = REPO / "results" / ".cache" / "meshes"
 BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
@@ -119,7 +119,7 @@ def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
     import gmsh
 
     digest = hashlib.sha256()
-    for path in geo_sources(source):
+    for path in [*geo_sources(source), Path(__file__).with_name("gmsh_mesher.py")]:
         digest.update(path.read_bytes())
     digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
     digest.update(gmsh.__version__.encode())
@@ -201,8 +201,8 @@ def generate(source: Path, numbers: dict[str, float], refine: int, target: Path)
     # and the standard library only (the package's imports would cost it 0.45 s).
     child = Path(__file__).with_name("gmsh_mesher.py")
     command = [sys.executable, str(child), str(source), json.dumps(numbers), str(refine), str(target)]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=own_group_dying_with_parent)
+    process = subprocess.Popen(dying_with_parent(command), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
     with _children_lock:
         _children.add(process)
     try:

@@ -20,6 +20,7 @@ of wall time by default); `resume=True` (`run --resume`, and every sweep) contin
 """
 from __future__ import annotations
 
+import ctypes
 import fcntl
 import hashlib
 import json
@@ -40,8 +41,10 @@ from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, fa
 from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
 
-NAME_MAX = 255  # bytes in one path component on Linux file systems
-SUFFIXES = (".partial", ".failed", ".replaced")
+NAME_MAX, PATH_MAX = 255, 4096  # bytes in one path component, and in a whole path, on Linux
+SUFFIXES = (".partial", ".failed", ".replaced")  # the run's work folders beside <out>
+RUN_FILES = (MANIFEST, FACTS, "params_used.json", "summary.json")  # what marks a folder a run wrote
+WORK_FILES = ("inputs.json", "scene.toml", "run.log", "INTERRUPTED")  # and one a run is writing
 
 
 class RunError(RuntimeError):
@@ -96,20 +99,35 @@ def output_folder(out: str | Path) -> Path:
     path = Path(os.path.abspath(out))
     if path.name in ("", ".", ".."):
         raise InputError(f"--out {str(out)!r} names no folder: give a folder name, e.g. --out results/run")
+    if path.name.endswith(SUFFIXES):
+        raise InputError(f"--out {str(out)!r}: a name ending in {', '.join(SUFFIXES)} is the runner's own, for the "
+                         "folders beside a run: choose another")
     longest = max(len(suffix) for suffix in SUFFIXES)
     if len(path.name.encode()) + longest > NAME_MAX:
         raise InputError(f"--out: the folder name is {len(path.name.encode())} bytes long; at most "
                          f"{NAME_MAX - longest} are allowed (a file name holds {NAME_MAX} and the run adds '.replaced')")
+    if len(os.fsencode(path)) + longest + 64 > PATH_MAX:
+        raise InputError(f"--out: the path is {len(os.fsencode(path))} bytes long; a run's files need it under "
+                         f"{PATH_MAX - longest - 64}")
     return path.parent.resolve() / path.name
 
 
-def is_run_folder(path: Path) -> bool:
-    """A folder a run wrote (what --force may replace: it holds a run's manifest, facts,
-    parameters or summary; the curated results/ folders keep the summary and the images), or an
-    empty one."""
+def holds(path: Path, names) -> bool:
+    """A real folder (not a link), empty or holding one of the files `names`."""
     return path.is_dir() and not path.is_symlink() and (
-        not any(path.iterdir())
-        or any((path / name).is_file() for name in (MANIFEST, FACTS, "params_used.json", "summary.json")))
+        not any(path.iterdir()) or any((path / name).is_file() for name in names))
+
+
+def is_run_folder(path: Path) -> bool:
+    """A folder a run wrote, or an empty one: what --force may replace (the curated results/
+    folders keep a run's summary and images)."""
+    return holds(path, RUN_FILES)
+
+
+def is_work_folder(path: Path) -> bool:
+    """A folder a run is writing or left (<out>.partial, .failed, .replaced), or an empty one:
+    what a run may empty or remove. Anything else by those names is a user's and is kept."""
+    return holds(path, RUN_FILES + WORK_FILES)
 
 
 def refuse_existing(out: Path, force: bool) -> None:
@@ -124,22 +142,34 @@ def refuse_existing(out: Path, force: bool) -> None:
                        "the folders of runs; choose another --out")
 
 
+def refuse_foreign(folder: Path) -> None:
+    if os.path.lexists(folder) and not is_work_folder(folder):
+        raise RunError(f"{folder} exists and is not a run's folder (a file, a link, or files no run wrote): "
+                       "remove it or choose another --out")
+
+
 @contextmanager
-def claimed(out: Path, keep: bool = False):
+def claimed(out: Path, keep=None):
     """`<out>.partial`, held under an exclusive lock until the block ends; emptied unless `keep`
     says its contents are to be continued (keep(partial) -> bool, asked under the lock)."""
     partial = out.with_name(out.name + ".partial")
-    if partial.is_symlink() or (os.path.lexists(partial) and not partial.is_dir()):
-        raise RunError(f"{partial} exists and is not a run's folder (a file or a link): remove it or choose another --out")
-    partial.mkdir(parents=True, exist_ok=True)
-    handle = os.open(partial, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    refuse_foreign(partial)
+    try:
+        partial.mkdir(parents=True, exist_ok=True)
+        handle = os.open(partial, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    except OSError as error:
+        raise RunError(f"cannot make the run's folder {partial}: {error.strerror}") from None
     try:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise RunError(f"another run is writing {out} (it holds {partial}): wait for it or choose another --out") \
                 from None
-        if os.fstat(handle).st_ino != os.stat(partial, follow_symlinks=False).st_ino:
+        try:
+            moved = os.fstat(handle).st_ino != os.stat(partial, follow_symlinks=False).st_ino
+        except FileNotFoundError:
+            moved = True
+        if moved:
             raise RunError(f"{partial} was replaced while this run claimed it: another run is writing {out}")
         if not (keep and keep(partial)):
             for path in partial.iterdir():  # what an earlier, crashed run left
@@ -149,10 +179,20 @@ def claimed(out: Path, keep: bool = False):
         os.close(handle)
 
 
+def result_code(scene: Scene) -> str:
+    """The FreeFEM scene of a run with the RESULT_FREE keys at fixed values: what of the generated
+    code a result depends on (a resumed run may checkpoint at another rate)."""
+    output = scene.output.model_copy(update={"checkpointEvery": 0, "checkpointSeconds": 0.0, "images": True})
+    return to_freefem_scene(scene.model_copy(update={"output": output}))
+
+
 def solver_sources_digest() -> str:
-    """The solver's FreeFEM sources (driver, libraries, default scene)."""
+    """The solver's sources: the driver and every file it includes or reads (libraries, the
+    parameter table, the default scene, the benchmark hook)."""
     sha = hashlib.sha256()
-    for path in sorted([MAIN, *(REPO / "edp" / "lib").glob("*.idp"), *(REPO / "edp" / "scenes").glob("*.idp")]):
+    sources = [MAIN, REPO / "edp" / "lib" / "parameters.md", REPO / "edp" / "tools" / "measure.idp",
+               *(REPO / "edp" / "lib").glob("*.idp"), *(REPO / "edp" / "scenes").glob("*.idp")]
+    for path in sorted(sources):
         sha.update(path.relative_to(REPO).as_posix().encode() + b"\0" + path.read_bytes())
     return sha.hexdigest()
 
@@ -162,13 +202,14 @@ RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images")
 
 
 def inputs_of(scene: Scene) -> dict:
-    """Everything a run's result depends on: the scene as validated (RESULT_FREE aside), the
-    solver's sources and what determines each body's mesh (committed file content, or .geo
-    sources, numbers and gmsh version). A run folder whose manifest holds the same digest is the
-    same run."""
+    """Everything a run's result depends on: the scene as validated (RESULT_FREE aside) and the
+    FreeFEM scene written from it (so a change in how it is written counts), the solver's sources
+    and what determines each body's mesh (committed file content, or .geo sources, the mesher,
+    numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
     parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
+             "freefemScene": hashlib.sha256(result_code(scene).encode()).hexdigest(),
              "solver": solver_sources_digest(),
              "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine)
                         for body in (scene.body1, scene.body2)]}
@@ -176,20 +217,39 @@ def inputs_of(scene: Scene) -> dict:
     return parts
 
 
-def resumable(partial: Path, inputs: dict, force: bool) -> bool:
-    """Does `<out>.partial` hold a checkpoint of a run of these inputs? A checkpoint of other
-    inputs is refused (or, with force, discarded: the run starts over)."""
-    checkpoints = [path for path in (partial / "checkpoint-a.txt", partial / "checkpoint-b.txt") if path.is_file()]
-    if not checkpoints:
+def checkpoint_step(partial: Path) -> int:
+    """The step of the newest checkpoint file in a partial folder (0: none); whether it is whole
+    is the driver's to judge."""
+    steps = [0]
+    for path in (partial / "checkpoint-a.txt", partial / "checkpoint-b.txt"):
+        try:
+            with open(path) as handle:
+                steps.append(int(handle.readline().split()[1]))
+        except (OSError, ValueError, IndexError):
+            pass
+    return max(steps)
+
+
+def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
+    """Is `<out>.partial` to be continued from its checkpoint? Yes when asked (resume) and it holds
+    a checkpoint of a run of these inputs. A checkpoint is never discarded unasked: one of other
+    inputs with resume, or any without resume, is refused unless force says to start over."""
+    step = checkpoint_step(partial)
+    if not step:
         return False
     try:
         same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
     except (OSError, ValueError, KeyError):
         same = False
-    if not same and not force:
-        raise RunError(f"{partial} holds a checkpoint of a run of other inputs: run without --resume to start over, "
-                       "or with --force to discard it")
-    return same
+    if force and not (resume and same):
+        return False
+    if not resume:
+        raise RunError(f"{partial} holds an interrupted run with a checkpoint at step {step}: --resume to continue it, "
+                       "--force to start over")
+    if not same:
+        raise RunError(f"{partial} holds a checkpoint of a run of other inputs: run without --resume and with --force "
+                       "to start over")
+    return True
 
 
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
@@ -212,7 +272,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
 
     def keep(partial: Path) -> bool:
         nonlocal restart
-        restart = resume and resumable(partial, inputs, force)
+        restart = resumable(partial, inputs, resume, force)
         return restart
 
     with claimed(out, keep) as partial:
@@ -229,40 +289,66 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
                 (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
                 write_manifest(partial, inputs)
+                retire(failed)
+                publish(partial, out)
         except (KeyboardInterrupt, Interrupted) as error:
             meshing.stop_meshing()
             reason = str(error) or "Ctrl-C"
             (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
             raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
         except (SolverError, meshing.MeshError, SceneError, TooLarge, IncompleteRun) as error:
-            with open(partial / "run.log", "a") as log:
-                log.write(f"\nERROR: {error}\n")
-            retire(failed)
-            partial.rename(failed)
+            fail_into(partial, failed, str(error))
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
             raise RunError(f"cannot write the run ({error.strerror}: {error.filename}); is the disk full? "
                            f"The files written so far are in {partial}") from None
-        retire(failed)
-        publish(partial, out)
+        except Exception as error:  # a fault of this program: the folder still says what happened
+            fail_into(partial, failed, f"{type(error).__name__}: {error}")
+            raise
     return load_result(out)
 
 
+def fail_into(partial: Path, failed: Path, reason: str) -> None:
+    """A failed run: its reason at the end of run.log, its folder renamed <out>.failed."""
+    with open(partial / "run.log", "a") as log:
+        log.write(f"\nERROR: {reason}\n")
+    retire(failed)
+    partial.rename(failed)
+
+
 def retire(folder: Path) -> None:
-    if folder.is_dir() and not folder.is_symlink():
+    """Remove a work folder beside <out> (a link there: the link only; a folder no run wrote:
+    refused, never removed)."""
+    if folder.is_symlink():
+        folder.unlink()
+    elif os.path.lexists(folder):
+        refuse_foreign(folder)
         shutil.rmtree(folder)
 
 
+_LIBC = ctypes.CDLL(None, use_errno=True)
+AT_FDCWD, RENAME_EXCHANGE = -100, 2
+
+
+def exchange(first: Path, second: Path) -> bool:
+    """Swap two folders in one step (Linux renameat2); False where the system cannot."""
+    swap = getattr(_LIBC, "renameat2", None)
+    return swap is not None and swap(AT_FDCWD, os.fsencode(first), AT_FDCWD, os.fsencode(second), RENAME_EXCHANGE) == 0
+
+
 def publish(partial: Path, out: Path) -> None:
-    """Rename the complete run to `out`, replacing the run folder there (checked before)."""
-    if os.path.lexists(out):
+    """Rename the complete run to `out`, replacing the run folder there (checked before): in one
+    atomic swap where the system allows it, so `out` never goes missing."""
+    if not os.path.lexists(out):
+        partial.rename(out)
+    elif exchange(partial, out):
+        shutil.rmtree(partial)  # the run it replaced
+    else:
         retired = out.with_name(out.name + ".replaced")
         retire(retired)
         out.rename(retired)
         partial.rename(out)
         shutil.rmtree(retired)
-    else:
-        partial.rename(out)
 
 
 def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshing.MeshInfo]:

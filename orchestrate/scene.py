@@ -31,10 +31,15 @@ class SceneError(InputError):
 
 def _expression(value):
     if not isinstance(value, str):
-        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-            value = repr(value)
-        else:
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise ValueError(f"an expression must be a string or a number, got {type(value).__name__}")
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an integer beyond every double
+            finite = False
+        if not finite:
+            raise ValueError(f"the number {str(value)[:40]} is not a finite double")
+        value = repr(value)
     try:
         expr.parse(value)
     except expr.ExpressionError as error:
@@ -43,6 +48,7 @@ def _expression(value):
 
 
 Expression = Annotated[str, BeforeValidator(_expression)]
+Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]  # a number, never a boolean or a text
 MESHES = REPO / "meshes"
 IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
 
@@ -56,11 +62,11 @@ class Mesh(Strict):
     DefineConstant values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top,
     4 left). A .geo file is gmsh code (it can run commands), so only the project's own are used."""
     geo: str | None = None
-    rectangle: tuple[float, float, float, float] | None = Field(default=None, description="x0, x1, y0, y1")
+    rectangle: tuple[Real, Real, Real, Real] | None = Field(default=None, description="x0, x1, y0, y1")
     n: int = Field(strict=True, ge=1, le=4096)
     structured: bool | None = Field(None, strict=True)
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
-    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Annotated[float, Field(allow_inf_nan=False)]] = {}
+    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = {}
     contactLabel: int = field("contactLabel")
 
     @model_validator(mode="after")
@@ -80,6 +86,9 @@ class Mesh(Strict):
         ignored by gmsh without a word."""
         own = {"n", "structured"} | ({"x0", "x1", "y0", "y1"} if self.rectangle is not None else set())
         constants = geo_constants(self.source())
+        if self.structured is not None and "structured" not in constants:
+            raise ValueError(f"structured: {self.source().name} has no structured mesh to choose (it defines "
+                             f"{', '.join(constants)})")
         for name in self.parameters:
             if name in own:
                 raise ValueError(f"parameters.{name}: set it with its own key (mesh.{'rectangle' if name[0] in 'xy' else name})")
@@ -232,7 +241,7 @@ class Output(Strict):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
     "state" (the unknowns, for error norms between runs)."""
-    times: Literal["final", "all", "none"] | Annotated[list[float], Field(min_length=1)] = PARAMETERS["outTimes"].default
+    times: Literal["final", "all", "none"] | Annotated[list[Real], Field(min_length=1)] = PARAMETERS["outTimes"].default
     fields: list[Literal["bodies", "stress", "contact", "state"]] = PARAMETERS["outFields"].default.split(",")
     images: bool = Field(True, strict=True)
     checkpointEvery: int = field("checkpointEvery")
@@ -273,6 +282,12 @@ class Scene(Strict):
             data = tomllib.loads(path.read_text())
         except FileNotFoundError:
             raise SceneError(f"scene file {path} not found") from None
+        except IsADirectoryError:
+            raise SceneError(f"scene {path} is a folder: give a scene file, e.g. scenes/paper.toml") from None
+        except UnicodeDecodeError as error:
+            raise SceneError(f"{path}: not UTF-8 text (byte {error.start}): a scene is a TOML file") from None
+        except OSError as error:
+            raise SceneError(f"scene file {path} cannot be read: {error.strerror}") from None
         except tomllib.TOMLDecodeError as error:
             raise SceneError(f"{path}: not valid TOML: {error}") from None
         return cls.from_dict(data, overrides, source=str(path))

@@ -170,3 +170,48 @@ def test_an_interrupted_sweep_continues_its_runs_from_their_checkpoints(tmp_path
     assert all(step > 0 for step in restarted), restarted
     fresh = run(PEEL, tmp_path / "fresh", {**base, "glue.gammaR": 1.0})
     same_results(fresh.folder, out / rows_again[1]["folder"])
+
+
+def test_a_run_with_a_checkpoint_is_not_started_over_unasked(tmp_path):
+    out = tmp_path / "run"
+    partial = tmp_path / "run.partial"
+    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while process.poll() is None and rows(partial) < 50:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    with pytest.raises(RunError, match="--resume to continue it, --force to start over"):
+        run(PEEL, out, PEEL_SET)
+    assert list(partial.glob("checkpoint-*"))
+    anew = run(PEEL, out, PEEL_SET, force=True)
+    assert "restartedFrom" not in json.loads((anew.folder / "run.json").read_text())
+
+
+def test_a_restart_into_another_folder_gives_a_whole_run(tmp_path, uninterrupted):
+    source = tmp_path / "killed"
+    killed_driver(source, 250)
+    target = tmp_path / "elsewhere"
+    done = run_script(MAIN, [*DRIVER, "-out", target, "-restart", source])
+    assert done.returncode == 0, done.error_line
+    same_results(uninterrupted, target)
+    from orchestrate import load_result
+
+    load_result(target)  # every file it lists is there, whole
+
+
+def test_loads_are_told_apart_from_prescribed_displacements_in_the_fingerprint(tmp_path):
+    """With a prescribed displacement, the right-hand side holds tgv·g on the prescribed degrees of
+    freedom (about 1e28): a change of a traction must still be seen."""
+    moving = (REPO / "edp" / "scenes" / "paper.idp").read_text().replace("on(5, ux = 0, uy = 0)", "on(5, ux = 0, uy = 0.01*t)")
+    (tmp_path / "moving.idp").write_text(moving)
+    (tmp_path / "heavier.idp").write_text(moving.replace("(-10*t)", "(-11*t)"))
+    folder = tmp_path / "run"
+    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)], {"SCENE": "moving.idp"}),
+                               cwd=tmp_path, env=freefem_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while process.poll() is None and rows(folder) < 100:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "heavier.idp"}, cwd=tmp_path)
+    assert done.returncode == 3 and "other loads or boundary conditions" in done.error_line

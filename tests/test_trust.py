@@ -462,3 +462,97 @@ def test_an_interrupted_sweep_writes_its_table_and_marks_what_it_stopped(tmp_pat
     assert table.count(",interrupted,") == 2
     for partial in out.glob("*.partial"):
         assert (partial / "INTERRUPTED").exists()
+
+
+# --- found by review: names the runner keeps for itself, and more bad input ----------------------
+
+def test_names_of_the_runner_s_own_folders_are_refused_and_a_user_s_folder_by_such_a_name_is_kept(tmp_path):
+    for suffix in (".partial", ".failed", ".replaced"):
+        with pytest.raises(InputError, match="the runner's own"):
+            run(PAPER, tmp_path / f"mine{suffix}", COARSE)
+    mine = tmp_path / "run.partial"
+    mine.mkdir()
+    (mine / "results.dat").write_text("keep")
+    with pytest.raises(RunError, match="files no run wrote"):
+        run(PAPER, tmp_path / "run", COARSE)
+    assert (mine / "results.dat").read_text() == "keep"
+
+
+def test_a_failed_folder_that_is_a_link_is_replaced_as_a_link(tmp_path):
+    target = tmp_path / "elsewhere"
+    target.mkdir()
+    (target / "keep.txt").write_text("keep")
+    (tmp_path / "run.failed").symlink_to(target)
+    with pytest.raises(Exception, match="contactMaxIt"):
+        run(PAPER, tmp_path / "run", {**COARSE, "solver.contactMaxIt": 1})
+    assert (target / "keep.txt").read_text() == "keep" and (tmp_path / "run.failed" / "run.log").is_file()
+    assert not (tmp_path / "run.failed").is_symlink()
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"body1.boundary.1.fy": "+".join(["x"] * 1000)}, ["deeper than 200 operations"]),
+    ({"body1.boundary.1.fy": 10 ** 400}, ["not a finite double"]),
+    ({"body1.mesh.parameters": {"nn": True}}, ["parameters.nn", "valid number"]),
+    ({"body2.mesh.structured": True, "body2.mesh.geo": "meshes/base.geo"}, ["structured", "base.geo has no structured"]),
+    ({"output.times": [True]}, ["output.times"]),
+    ({"output.times": ["0.5"]}, ["output.times"]),
+])
+def test_more_bad_scene_values_are_refused_naming_the_key(tmp_path, overrides, words):
+    with pytest.raises(SceneError) as error:
+        run(PAPER, tmp_path / "run", {**COARSE, **overrides})
+    for word in words:
+        assert word in str(error.value), (word, str(error.value))
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_rectangle_of_booleans_or_texts_is_refused():
+    scene = (REPO / "scenes" / "shear.toml")
+    with pytest.raises(SceneError, match="body1.mesh.rectangle"):
+        Scene.load(scene, {"body1.mesh.rectangle": [True, "2", 0.0, 1.0]})
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p.write_bytes(b'title = "\xff"\n'), ["not UTF-8"]),
+    (lambda p: p.mkdir(), ["is a folder"]),
+])
+def test_a_scene_file_that_cannot_be_read_is_named(tmp_path, make, words):
+    scene = tmp_path / "scene.toml"
+    make(scene)
+    done = cli("run", scene, "--out", tmp_path / "out")
+    assert done.returncode == 2 and all(word in done.stderr for word in words) and "Traceback" not in done.stderr
+
+
+def test_an_output_folder_under_a_file_or_too_long_is_refused_with_the_reason(tmp_path):
+    (tmp_path / "afile").write_text("")
+    done = cli("run", PAPER, "--out", tmp_path / "afile" / "x")
+    assert done.returncode == 1 and "Not a directory" in done.stderr and "Traceback" not in done.stderr
+    deep = tmp_path.joinpath(*["d" * 200] * 21)
+    done = cli("run", PAPER, "--out", deep)
+    assert done.returncode == 2 and "the path is" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_an_override_given_twice_is_refused(tmp_path):
+    done = cli("run", PAPER, "--set", "time.N=20", "--set", "time.N=40", "--out", tmp_path / "out")
+    assert done.returncode == 2 and "--set time.N is given twice" in done.stderr
+
+
+def test_a_fault_of_the_program_still_leaves_a_failed_folder_with_the_reason(tmp_path, monkeypatch):
+    from orchestrate import runner as runner_module
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a bug")
+    monkeypatch.setattr(runner_module, "check_files", broken)
+    with pytest.raises(ZeroDivisionError):
+        run(PAPER, tmp_path / "run", COARSE)
+    assert "ZeroDivisionError: a bug" in (tmp_path / "run.failed" / "run.log").read_text()
+
+
+def test_an_edited_parameter_table_runs_again(tmp_path):
+    copy = checkout_copy(tmp_path)
+    command = ["sweep", "scenes/paper.toml", "--grid", "glue.gammaNu=1", "--set", "time.N=20", "--set",
+               "output.images=false", "--workers", "1", "--out", tmp_path / "sweep"]
+    assert in_copy(copy, *command).returncode == 0
+    table = copy / "edp" / "lib" / "parameters.md"
+    table.write_text(table.read_text().replace("| boundTol | run | real | 1e-10 |", "| boundTol | run | real | 1e-9 |"))
+    again = in_copy(copy, *command)
+    assert again.returncode == 0 and "skipped" not in again.stdout and "completed" in again.stdout
