@@ -115,17 +115,24 @@ def cli_args(overrides: dict) -> list[str]:
             for item in ("--set", f"{key}={json.dumps(value) if not isinstance(value, bool) else str(value).lower()}")]
 
 
+def killed_runner(out: Path, at_rows: int) -> list[str]:
+    """`orchestrate run` of the peel scene into `out`, killed (SIGKILL: FreeFem++ dies with it)
+    once its history has `at_rows` rows; returns the command."""
+    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
+    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    partial = out.with_name(out.name + ".partial")
+    while process.poll() is None and rows(partial) < at_rows:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert 0 < rows(partial) < 400
+    return command
+
+
 def test_run_resume_continues_a_killed_run_of_the_peel_scene(tmp_path):
     fresh = run(PEEL, tmp_path / "fresh", PEEL_SET)
     out = tmp_path / "run"
-    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
-    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    partial = tmp_path / "run.partial"
-    while process.poll() is None and rows(partial) < 150:
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)  # the runner: FreeFem++ dies with it
-    process.wait()
-    assert 0 < rows(partial) < 400
+    command = killed_runner(out, 150)
     resumed = subprocess.run([*command, "--resume"], cwd=REPO, capture_output=True, text=True)
     assert resumed.returncode == 0, resumed.stderr
     assert json.loads((out / "run.json").read_text())["restartedFrom"] > 0
@@ -136,12 +143,7 @@ def test_run_resume_continues_a_killed_run_of_the_peel_scene(tmp_path):
 def test_resume_refuses_a_partial_run_of_other_inputs(tmp_path):
     out = tmp_path / "run"
     partial = tmp_path / "run.partial"
-    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
-    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while process.poll() is None and rows(partial) < 50:
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
+    killed_runner(out, 50)
     with pytest.raises(RunError, match="checkpoint of a run of other inputs"):
         run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0}, resume=True)
     anew = run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0, "time.N": 80}, resume=True, force=True)  # discarded
@@ -175,12 +177,7 @@ def test_an_interrupted_sweep_continues_its_runs_from_their_checkpoints(tmp_path
 def test_a_run_with_a_checkpoint_is_not_started_over_unasked(tmp_path):
     out = tmp_path / "run"
     partial = tmp_path / "run.partial"
-    command = [sys.executable, "-m", "orchestrate", "run", str(PEEL), *cli_args(PEEL_SET), "--out", str(out)]
-    process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while process.poll() is None and rows(partial) < 50:
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
+    killed_runner(out, 50)
     with pytest.raises(RunError, match="--resume to continue it, --force to start over"):
         run(PEEL, out, PEEL_SET)
     assert list(partial.glob("checkpoint-*"))
