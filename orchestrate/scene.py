@@ -210,6 +210,7 @@ class Body(Strict):
 class Time(Strict):
     T: float = field("T")
     N: int = field("N")
+    scheme: Literal[PARAMETERS["scheme"].choices] = field("scheme")
 
 
 class Glue(Strict):
