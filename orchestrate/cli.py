@@ -50,6 +50,19 @@ def at_least_two(text: str) -> int:
     return value
 
 
+def choices_list(allowed) -> callable:
+    """A comma-separated list of distinct words among `allowed`, for --ladders-like options."""
+    def parse(text: str) -> list[str]:
+        words = [word.strip() for word in text.split(",")]
+        for word in words:
+            if word not in allowed:
+                raise argparse.ArgumentTypeError(f"'{word}' is not one of {', '.join(allowed)}")
+        if len(set(words)) != len(words):
+            raise argparse.ArgumentTypeError(f"'{text}' lists a word twice")
+        return words
+    return parse
+
+
 def add_commands(subparsers, modules) -> None:
     for name in modules:
         module = importlib.import_module(name)

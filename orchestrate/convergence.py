@@ -1,15 +1,21 @@
 """Convergence study of a scene: python -m orchestrate study convergence SCENE.
 
-Three ladders of runs, each level halving what the ladder refines:
+Ladders of runs, each level halving what the ladder refines:
   lockstep  h and k together: body 1 with n1₀·2^ℓ elements per side, body 2 with n2₀·2^ℓ, N₀·2^ℓ steps
-  time      k alone, on a fixed fine mesh
+  time      k alone, on a fixed fine mesh: one ladder per time scheme (--schemes), N from --time-N
   space     h alone, at a fixed small step
 The meshes must be nested under n → 2n (the paper's structured family is) so that the error norms
-are exact. Every run saves its state (u, ζ, β) at the N₀ instants of the coarsest level, which all
-levels share; edp/tools/errors.edp measures there the distance of each level to the finest level
-of its ladder (the reference) and to the next level. The error of a level is the maximum over the
-instants, as in Theorem 2.1 of the seed. Observed rates are log₂ of successive error ratios and a
-least-squares slope over the finest three levels below the reference.
+of the lockstep and space ladders are exact; the time ladders use one mesh. Every run saves its
+state (u, ζ, β) at the N₀ instants of its ladder's coarsest level, which all its levels share;
+edp/tools/errors.edp measures there the distance of each level to the reference and to the next
+level. The reference of the lockstep and space ladders is their finest level; the time ladders
+share one reference run, the most accurate scheme listed at twice their finest N. The error of a
+level is the maximum over the instants, as in Theorem 2.1 of the seed. Observed rates are
+least-squares slopes over the finest three levels measured.
+
+A level of a time ladder may be refused (exit 3: its step exceeds a bound of an explicit term) or
+stopped (exit 5: the run broke an invariant); the table says which and why, and the rates use the
+levels that ran.
 """
 from __future__ import annotations
 
@@ -24,28 +30,53 @@ import numpy as np
 from orchestrate.freefem import REPO, run_script
 from orchestrate.manifest import facts
 from orchestrate.plots import pyplot, save
-from orchestrate.reports import QUANTITIES, LABELS, THEORY, convergence_report, write_csv
+from orchestrate.reports import QUANTITIES, LABELS, convergence_report, expected_order, write_csv
 from orchestrate.results import load_result
 from orchestrate.scene import Scene
 from orchestrate.sweep import plan, run_jobs
 
+KINDS = ("lockstep", "time", "space")
+ACCURACY = ("bdf2", "semi-implicit", "euler")  # most accurate first: the time ladders' reference
+
 
 @dataclass(frozen=True)
 class Ladder:
-    name: str
-    levels: list[dict]  # overrides per level, coarse to fine
+    name: str            # lockstep, space, or "time" + the scheme
+    kind: str            # lockstep, time or space
+    levels: list[dict]   # overrides per level, coarse to fine
+    instants: int        # the shared instants: the coarsest level's steps
+    scheme: str | None = None
+    reference: dict | None = None  # the run every level is measured against; None: the finest level
 
     def step(self, level: int) -> int:
         return self.levels[level]["time.N"]
 
 
-def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, space_steps_level: int) -> list[Ladder]:
+def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, space_steps_level: int,
+            kinds=KINDS, schemes=(None,), time_steps: int | None = None, time_count: int | None = None) -> list[Ladder]:
+    """The ladders of the study; `schemes` None: the scene's own."""
     def mesh(level):
         return {"body1.mesh.n": n1 * 2 ** level, "body2.mesh.n": n2 * 2 ** level}
 
-    return [Ladder("lockstep", [{**mesh(level), "time.N": steps * 2 ** level} for level in range(count)]),
-            Ladder("time", [{**mesh(time_mesh_level), "time.N": steps * 2 ** level} for level in range(count)]),
-            Ladder("space", [{**mesh(level), "time.N": steps * 2 ** space_steps_level} for level in range(count)])]
+    time_steps, time_count = time_steps or steps, time_count or count
+    studied = []
+    if "lockstep" in kinds:
+        studied.append(Ladder("lockstep", "lockstep", [{**mesh(level), "time.N": steps * 2 ** level}
+                                                       for level in range(count)], steps))
+    if "time" in kinds:
+        listed = [scheme for scheme in schemes if scheme]
+        best = next((scheme for scheme in ACCURACY if scheme in listed), None)
+        reference = {**mesh(time_mesh_level), "time.N": time_steps * 2 ** time_count,
+                     **({"time.scheme": best} if best else {})}
+        for scheme in schemes:
+            chosen = {"time.scheme": scheme} if scheme else {}
+            studied.append(Ladder("time" + (f" {scheme}" if scheme else ""), "time",
+                                  [{**mesh(time_mesh_level), "time.N": time_steps * 2 ** level, **chosen}
+                                   for level in range(time_count)], time_steps, scheme, reference))
+    if "space" in kinds:
+        studied.append(Ladder("space", "space", [{**mesh(level), "time.N": steps * 2 ** space_steps_level}
+                                                 for level in range(count)], steps))
+    return studied
 
 
 def distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
@@ -78,92 +109,125 @@ def slope(sizes, errors) -> float:
     return float(np.polyfit(np.log(sizes), np.log(errors), 1)[0])
 
 
-def measure(ladder: Ladder, folders: list[Path], instants: int, scene: Scene) -> list[dict]:
-    """One row per level: sizes, errors against the reference and against the next level."""
-    reference, rows = len(folders) - 1, []
+def measure(ladder: Ladder, folders: list[Path | None], errors: list[str], reference: Path, scene: Scene) -> list[dict]:
+    """One row per level: sizes, errors against the reference and against the next level; a level
+    that did not run (folder None) has its error message instead."""
+    rows = []
     for level, overrides in enumerate(ladder.levels):
-        row = {"ladder": ladder.name, "level": level, "n1": overrides["body1.mesh.n"], "n2": overrides["body2.mesh.n"],
-               "N": overrides["time.N"], "h1": facts(folders[level])["contactLength"] / overrides["body1.mesh.n"],
-               "k": scene.time.T / overrides["time.N"], "seconds": load_result(folders[level]).history["stepSeconds"].sum()}
-        if level < reference:
-            to_reference = distances(folders[level], folders[reference], ladder.step(level), ladder.step(reference), instants)
-            to_next = distances(folders[level], folders[level + 1], ladder.step(level), ladder.step(level + 1), instants)
-            norm = max(r["normV"] for r in to_reference)
-            for quantity in QUANTITIES:
-                row[quantity] = max(r[quantity] for r in to_reference)
-                row["next" + quantity[len("error"):]] = max(r[quantity] for r in to_next)
-            row["relativeErrorV"] = row["errorV"] / norm
+        row = {"ladder": ladder.name, "kind": ladder.kind, "scheme": ladder.scheme or scene.time.scheme, "level": level,
+               "n1": overrides["body1.mesh.n"], "n2": overrides["body2.mesh.n"], "N": overrides["time.N"],
+               "k": scene.time.T / overrides["time.N"], "status": errors[level] or "ran"}
         rows.append(row)
+        if folders[level] is None:
+            continue
+        row.update(h1=facts(folders[level])["contactLength"] / overrides["body1.mesh.n"],
+                   seconds=load_result(folders[level]).history["stepSeconds"].sum())
+        if folders[level] == reference:
+            continue
+        reference_steps = ladder.reference["time.N"] if ladder.reference else ladder.step(-1)
+        to_reference = distances(folders[level], reference, ladder.step(level), reference_steps, ladder.instants)
+        norm = max(r["normV"] for r in to_reference)
+        for quantity in QUANTITIES:
+            row[quantity] = max(r[quantity] for r in to_reference)
+        row["relativeErrorV"] = row["errorV"] / norm
+        row["relativeErrorVAtT"] = to_reference[-1]["errorV"] / to_reference[-1]["normV"]
+        if level + 1 < len(folders) and folders[level + 1] is not None:
+            to_next = distances(folders[level], folders[level + 1], ladder.step(level), ladder.step(level + 1),
+                                ladder.instants)
+            for quantity in QUANTITIES:
+                row["next" + quantity[len("error"):]] = max(r[quantity] for r in to_next)
     return rows
 
 
 def rates(rows: list[dict], ladder: str) -> dict[str, dict[str, float]]:
-    """Per quantity: the slope over the finest three levels below the reference, against the
-    reference and from successive differences (the latter free of the reference's own error)."""
+    """Per quantity: the slope over the finest three levels measured, against the reference and
+    from successive differences (the latter free of the reference's own error); NaN with fewer
+    than two such levels."""
     measured = [row for row in rows if row["ladder"] == ladder and "errorV" in row][-3:]
-    size = "k" if ladder == "time" else "h1"
+    with_next = [row for row in rows if row["ladder"] == ladder and "nextV" in row][-3:]
+    size = "k" if measured and measured[0]["kind"] == "time" else "h1"
     result = {}
     for quantity in QUANTITIES:
         name = quantity[len("error"):]
-        result[quantity] = {"reference": slope([r[size] for r in measured], [r[quantity] for r in measured]),
-                            "successive": slope([r[size] for r in measured], [r["next" + name] for r in measured])}
+        result[quantity] = {
+            "reference": slope([r[size] for r in measured], [r[quantity] for r in measured]) if len(measured) >= 2 else float("nan"),
+            "successive": slope([r[size] for r in with_next], [r["next" + name] for r in with_next]) if len(with_next) >= 2 else float("nan")}
     return result
 
 
 def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: int = 6, n2: int = 8, steps: int = 20,
-                time_mesh_level: int = 3, space_steps_level: int = 4, workers: int = 2, progress: bool = False) -> list[dict]:
-    """Run the three ladders and write convergence.csv, README.md and convergence.png in `out`."""
+                time_mesh_level: int = 3, space_steps_level: int = 4, kinds=KINDS, schemes=(None,),
+                time_steps: int | None = None, time_count: int | None = None, workers: int = 2,
+                progress: bool = False) -> list[dict]:
+    """Run the ladders and write convergence.csv, README.md and convergence.png in `out`."""
     out = Path(out).resolve()
     scene = Scene.load(scene_path)
-    instants = steps
-    times = [j * scene.time.T / instants for j in range(1, instants + 1)]
-    base = {"output.times": times, "output.fields": ["state"], "output.images": False}
-    studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level)
-    jobs, planned = [], {}
+    studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level, kinds, schemes, time_steps, time_count)
+    jobs, planned, references = [], {}, {}
     for ladder in studied:
-        rows, ladder_jobs = plan(scene_path, ladder.levels, out / "runs" / ladder.name, base)
+        times = [j * scene.time.T / ladder.instants for j in range(1, ladder.instants + 1)]
+        base = {"output.times": times, "output.fields": ["state"], "output.images": False}
+        rows, ladder_jobs = plan(scene_path, ladder.levels, out / "runs" / ladder.name.replace(" ", "-"), base)
         planned[ladder.name] = rows
         jobs += ladder_jobs
+        if ladder.reference and "time" not in references:
+            rows, reference_jobs = plan(scene_path, [ladder.reference], out / "runs" / "time-reference", base)
+            references["time"] = rows[0]
+            jobs += reference_jobs
     run_jobs(jobs, workers, None, progress)
-    failed = [row for rows in planned.values() for row in rows if row["status"] in ("failed", "invalid")]
+    tolerated = [row for ladder in studied if ladder.kind == "time" for row in planned[ladder.name]]
+    failed = [row for rows in (*planned.values(), list(references.values())) for row in rows
+              if row["status"] in ("failed", "invalid", "interrupted") and row not in tolerated]
     if failed:
         raise RuntimeError("runs of the study failed: " + "; ".join(f"{r['folder']}: {r['error']}" for r in failed))
     table = []
     for ladder in studied:
-        folders = [out / "runs" / ladder.name / row["folder"] for row in planned[ladder.name]]
-        table += measure(ladder, folders, instants, scene)
+        folder = out / "runs" / ladder.name.replace(" ", "-")
+        rows = planned[ladder.name]
+        folders = [folder / row["folder"] if row["status"] in ("completed", "skipped (complete)") else None for row in rows]
+        errors = ["" if path else row["error"] for path, row in zip(folders, rows)]
+        reference = out / "runs" / "time-reference" / references["time"]["folder"] if ladder.reference else folders[-1]
+        if reference is None:
+            raise RuntimeError(f"the reference of the {ladder.name} ladder did not run: {errors[-1]}")
+        table += measure(ladder, folders, errors, reference, scene)
     write_csv(out / "convergence.csv", table, COLUMNS)
-    plot(out / "convergence.png", table)
-    command = (f"python -m orchestrate study convergence {Path(scene_path).as_posix()} --levels {count} --n1 {n1} --n2 {n2} "
-               f"--N {steps} --time-mesh-level {time_mesh_level} --space-steps-level {space_steps_level}")
+    plot(out / "convergence.png", table, studied)
+    command = (f"python -m orchestrate study convergence {Path(scene_path).as_posix()} "
+               f"--ladders {','.join(ladder for ladder in KINDS if ladder in kinds)} --levels {count} --n1 {n1} --n2 {n2} "
+               f"--N {steps} --time-mesh-level {time_mesh_level} --space-steps-level {space_steps_level}"
+               + (f" --schemes {','.join(schemes)} --time-N {time_steps or steps} --time-levels {time_count or count}"
+                  if "time" in kinds and all(schemes) else ""))
     observed = {ladder.name: rates(table, ladder.name) for ladder in studied}
-    (out / "README.md").write_text(convergence_report(table, observed, command))
+    (out / "README.md").write_text(convergence_report(table, observed, command, studied))
     return table
 
 
-COLUMNS = ["ladder", "level", "n1", "n2", "N", "h1", "k", "errorV", "relativeErrorV", "errorZeta", "errorBeta",
-           "nextV", "nextZeta", "nextBeta", "seconds"]
+COLUMNS = ["ladder", "kind", "scheme", "level", "n1", "n2", "N", "h1", "k", "status", "errorV", "relativeErrorV",
+           "relativeErrorVAtT", "errorZeta", "errorBeta", "nextV", "nextZeta", "nextBeta", "seconds"]
 
 
-def plot(target: Path, table: list[dict]) -> None:
+def plot(target: Path, table: list[dict], studied: list[Ladder]) -> None:
+    """One panel per ladder: its errors against h or k, with the expected order dotted."""
     import matplotlib.ticker
 
-    figure, axes = pyplot().subplots(1, 3, figsize=(15, 4.6))
-    for axis, ladder in zip(axes, ("lockstep", "time", "space")):
-        rows = [row for row in table if row["ladder"] == ladder and "errorV" in row]
-        size = "k" if ladder == "time" else "h1"
+    figure, axes = pyplot().subplots(1, len(studied), figsize=(5 * len(studied), 4.6), squeeze=False)
+    for axis, ladder in zip(axes[0], studied):
+        rows = [row for row in table if row["ladder"] == ladder.name and "errorV" in row]
+        size = "k" if ladder.kind == "time" else "h1"
+        order = expected_order(ladder.kind, rows[0]["scheme"] if rows else None)
         sizes = np.array([row[size] for row in rows])
         for quantity, marker in zip(QUANTITIES, "osd"):
+            if not rows:
+                break
             errors = np.array([row[quantity] for row in rows])
             axis.loglog(sizes, errors, marker + "-", label=LABELS[quantity])
-            order = THEORY[ladder]
             axis.loglog(sizes, errors[-1] * (sizes / sizes[-1]) ** order, ":", color=axis.lines[-1].get_color(), lw=1)
-        axis.set_xlabel("time step k" if ladder == "time" else "mesh size h1 (body 1)")
-        axis.set_title(f"{ladder}: dotted = {('k' if ladder == 'time' else 'h')}^{THEORY[ladder]:g}")
+        axis.set_xlabel("time step k" if ladder.kind == "time" else "mesh size h1 (body 1)")
+        axis.set_title(f"{ladder.name}: dotted = {'k' if ladder.kind == 'time' else 'h'}^{order:g}")
         axis.grid(True, which="both", alpha=0.3)
         axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-    axes[0].set_ylabel("max over t of the error")
-    axes[0].legend(fontsize=8)
+    axes[0][0].set_ylabel("max over t of the error")
+    axes[0][0].legend(fontsize=8)
     save(figure, target)
 
 
@@ -173,15 +237,22 @@ NAME, HELP = "convergence", "lock-step, time-only and space-only ladders, errors
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.cli import at_least_two, positive
+    from orchestrate.cli import at_least_two, choices_list, positive
+    from orchestrate.parameters import PARAMETERS
 
     parser.add_argument("scene", help="a scene whose meshes are nested under n -> 2n, e.g. scenes/paper.toml")
+    parser.add_argument("--ladders", type=choices_list(KINDS), default=list(KINDS),
+                        help="which ladders, comma-separated (default: lockstep,time,space)")
     parser.add_argument("--levels", type=at_least_two, default=6, help="levels per ladder, the finest is the reference")
     parser.add_argument("--n1", type=positive, default=6, help="body 1 elements per side at the coarsest level")
     parser.add_argument("--n2", type=positive, default=8, help="body 2 elements per side at the coarsest level")
     parser.add_argument("--N", type=positive, default=20, help="time steps at the coarsest level")
-    parser.add_argument("--time-mesh-level", type=int, default=3, help="mesh level of the time-only ladder")
+    parser.add_argument("--time-mesh-level", type=int, default=3, help="mesh level of the time-only ladders")
     parser.add_argument("--space-steps-level", type=int, default=4, help="step level of the space-only ladder")
+    parser.add_argument("--schemes", type=choices_list(PARAMETERS["scheme"].choices), default=None,
+                        help="a time ladder per scheme, comma-separated (default: the scene's scheme)")
+    parser.add_argument("--time-N", type=positive, default=None, help="time steps at the coarsest level of the time ladders")
+    parser.add_argument("--time-levels", type=at_least_two, default=None, help="levels of each time ladder")
     parser.add_argument("--workers", type=positive, default=2)
     parser.add_argument("--out", default="results/convergence")
 
@@ -189,6 +260,7 @@ def add_arguments(parser) -> None:
 def command(options) -> int:
     convergence(options.scene, options.out, count=options.levels, n1=options.n1, n2=options.n2, steps=options.N,
                 time_mesh_level=options.time_mesh_level, space_steps_level=options.space_steps_level,
-                workers=options.workers, progress=sys.stderr.isatty())
+                kinds=options.ladders, schemes=options.schemes or (None,), time_steps=options.time_N,
+                time_count=options.time_levels, workers=options.workers, progress=sys.stderr.isatty())
     print((Path(options.out) / "README.md").read_text())
     return 0

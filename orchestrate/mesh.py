@@ -240,8 +240,10 @@ def memory_available() -> int:
     return 0
 
 
-def estimated_memory(nodes: int, constraints: int, dense_columns: bool) -> int:
+def estimated_memory(nodes: int, constraints: int, column_budget: float) -> int:
     """FreeFem++'s peak memory for a run on `nodes` mesh nodes with `constraints` contact nodes:
-    per node (BYTES_PER_NODE, measured) plus, for the active-set solver, the dense K⁻¹Cᵀ of both
-    bodies (2 dofs per node, one column per constraint)."""
-    return nodes * BYTES_PER_NODE + (16 * nodes * constraints if dense_columns else 0)
+    per node (BYTES_PER_NODE, measured) plus the dense columns of K⁻¹Cᵀ of both bodies (2 dofs per
+    node, at most one column per constraint) that the active-set solver keeps when they all fit in
+    `column_budget` bytes (edp/lib/contact.idp; 0 for Bermúdez–Moreno)."""
+    columns = 16 * nodes * constraints
+    return nodes * BYTES_PER_NODE + (columns if columns <= column_budget else 0)

@@ -378,12 +378,15 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
         require_labels(body, index, info)
         infos.append(info)
     constraints = infos[0].segments.get(scene.body1.mesh.contactLabel, 0) + 1
-    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, scene.solver.contactSolver == "pdas")
+    pdas = scene.solver.contactSolver == "pdas"
+    budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas else 0
+    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget)
     if free and need > free:
+        kept = need > meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, 0)
         raise TooLarge(f"this run needs about {need / 2**30:.1f} GiB ({infos[0].nodes + infos[1].nodes:,} nodes, "
-                          f"{constraints} contact nodes{', dense K⁻¹Cᵀ for the active-set solver' if scene.solver.contactSolver == 'pdas' else ''}) "
+                          f"{constraints} contact nodes{', the columns of K⁻¹Cᵀ kept by the active-set solver' if kept else ''}) "
                           f"and {free / 2**30:.1f} GiB are free: lower mesh.n or mesh.refine"
-                          + (", or use solver.contactSolver = \"bm\"" if scene.solver.contactSolver == "pdas" else ""))
+                          + (", or solver.contactColumnsMB below their size" if kept else ""))
     return infos
 
 
@@ -464,12 +467,24 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
     return {
         "title": scene.title,
         "status": "completed",
+        "warnings": run_warnings(run_facts, scene.time.T / scene.time.N),
         "final": final,
         "contactItersPerStep": float(result.history["contactIters"].mean()),
         "timing": {name: round(value, 6) if value is not None else None for name, value in timing.items()},
         "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
         "scene": scene.model_dump(mode="json"),
     }
+
+
+def run_warnings(run_facts: dict, k: float) -> list[str]:
+    """What a completed run's facts say the user should know about its figures."""
+    step = run_facts.get("zetaBelowCriticalStep") or 0
+    if not step:
+        return []
+    level = max(run_facts.get("zetaCritical1") or 0, run_facts.get("zetaCritical2") or 0)
+    return [f"zeta fell below {level:.4g} at step {step} (t = {step * k:.6g}), the level under which the explicit "
+            "damage source is unstable unless the obstacle zeta >= 0 holds it there: check the figures against a run "
+            "with a smaller step"]
 
 
 # --- command line ---------------------------------------------------------------------------
@@ -502,4 +517,6 @@ def command(options) -> int:
     final = result.history
     print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
+    for warning in json.loads((result.folder / "summary.json").read_text())["warnings"]:
+        print(f"warning: {warning}")
     return 0

@@ -230,6 +230,7 @@ class Solver(Strict):
     contactTol: float = field("contactTol")
     contactMaxIt: int = field("contactMaxIt")
     bmOmega: float = field("bmOmega")
+    contactColumnsMB: float = field("contactColumnsMB")
     damageTol: float = field("damageTol")
     damageMaxIt: int = field("damageMaxIt")
     boundTol: float = field("boundTol")

@@ -24,23 +24,46 @@ GLUE_SCENE = REPO / "scenes" / "shear.toml"
 GLUE_ALONE = {"body1.mesh.n": 8, "body2.mesh.n": 11, "glue.gammaNu": 0.0, "body1.material.E": 10.0,
               "body2.material.E": 10.0, "body1.boundary.0.value": "0.2*min(t, 1)",
               "body1.boundary.1.value": "0.2*min(t, 1)"}
-ELASTIC, GLUE = "kStar", "rhoTau"  # the run facts (run.json) of the two bounds
+ELASTIC, GLUE, SOURCE = "kStar", "rhoTau", "zetaCritical1"  # the run facts (run.json) of the bounds
+IMPLICIT = ("semi-implicit", "bdf2")
+# The damage source alone: no loads (u stays 0), λ_u = 0, so a uniform ζ obeys the scalar law
+# ζ' = λ_D (1 − ζ)/ζ + λ_w with the equilibrium ζ_eq = λ_D/(λ_D − λ_w) = 0.1, started 1 % above it
+# (the flat mode: the diffusion does not act on it). Linearized, ζ − ζ_eq decays at the rate λ_D/ζ_eq².
+SOURCE_ALONE = {"body1.boundary.1.fy": "0", "body1.boundary.2.fx": "0", "body1.mesh.n": 6, "body2.mesh.n": 8,
+                **{f"body{i}.damage.{key}": value for i in (1, 2)
+                   for key, value in (("lambdaU", 0.0), ("lambdaD", 1.0), ("lambdaW", -9.0), ("zeta0", 0.101))}}
+ZETA_EQUILIBRIUM = 1.0 / (1.0 + 9.0)
 
 
-def predicted_bound(folder: Path, fact: str) -> float | None:
+def predicted_bound(folder: Path, fact: str, k: float) -> float | None:
     """A bound as the driver computed it (run.json, written at set-up) in the last run into
-    `folder`, which may have stopped (runner.run leaves `<folder>.failed` then, and removes it
-    when a run succeeds): k* itself, or 2/ρ_τ; None without tangential glue (ρ_τ = 0)."""
+    `folder` (time step k), which may have stopped (runner.run leaves `<folder>.failed` then, and
+    removes it when a run succeeds): k* itself; glueLimit/ρ_τ (None without tangential glue); or
+    the step at which the damage source's level ζc = sqrt(k λ_D/limit) reaches ζ_eq,
+    k (ζ_eq/ζc)²."""
     failed = folder.with_name(folder.name + ".failed")
-    value = read_json((failed if failed.exists() else folder) / "run.json").get(fact)
+    facts = read_json((failed if failed.exists() else folder) / "run.json")
+    value = facts.get(fact)
     if fact == GLUE:
-        return 2 / value if value else None
+        return facts["glueLimit"] / value if value else None
+    if fact == SOURCE:
+        return k * (ZETA_EQUILIBRIUM / value) ** 2
     return value
 
 
-def is_unstable(scene_path, overrides: dict, folder: Path) -> bool:
-    """Unstable: the run stops on divergence, or ‖u‖_V at T exceeds ten times its value at t = 1
-    (the loads are held after t = 1, so a stable run only creeps)."""
+def grows(history, fact: str) -> bool:
+    """Over a horizon where the data are steady: ‖u‖_V at T more than ten times its value at t = 1
+    (the loads are held after t = 1, so a stable run only creeps), or, for the damage source,
+    ζ farther from ζ_eq at T than at the start."""
+    if fact == SOURCE:
+        start = abs(SOURCE_ALONE["body1.damage.zeta0"] - ZETA_EQUILIBRIUM)
+        return bool(abs(history["zetaMin1"][-1] - ZETA_EQUILIBRIUM) > start)
+    at_one = history["normV"][int(np.argmin(np.abs(history["t"] - 1.0)))]
+    return bool(history["normV"][-1] > 10 * at_one)
+
+
+def is_unstable(scene_path, overrides: dict, folder: Path, fact: str = ELASTIC) -> bool:
+    """Unstable: the run stops on divergence (exit 5), or it grows (`grows`)."""
     from orchestrate.freefem import SolverError
     from orchestrate.runner import run
 
@@ -50,21 +73,19 @@ def is_unstable(scene_path, overrides: dict, folder: Path) -> bool:
         if error.returncode == 5:
             return True
         raise
-    history = result.history
-    at_one = history["normV"][int(np.argmin(np.abs(history["t"] - 1.0)))]
-    return bool(history["normV"][-1] > 10 * at_one)
+    return grows(result.history, fact)
 
 
-def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int) -> int:
+def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int, fact: str) -> int:
     """Bisection on N between an unstable and a stable step count around `guess`."""
     low, high = max(1, int(0.7 * guess)), int(1.4 * guess) + 1
-    while not is_unstable(scene_path, {**overrides, "time.N": low}, folder):
+    while not is_unstable(scene_path, {**overrides, "time.N": low}, folder, fact):
         low = max(1, low // 2)
-    while is_unstable(scene_path, {**overrides, "time.N": high}, folder):
+    while is_unstable(scene_path, {**overrides, "time.N": high}, folder, fact):
         high *= 2
     while high - low > 1:
         middle = (low + high) // 2
-        if is_unstable(scene_path, {**overrides, "time.N": middle}, folder):
+        if is_unstable(scene_path, {**overrides, "time.N": middle}, folder, fact):
             low = middle
         else:
             high = middle
@@ -75,43 +96,104 @@ def threshold(scene_path, overrides: dict, folder: Path, fact: str) -> dict:
     """The predicted bound (from a short run) against the observed one (bisection on N over a
     horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
     probe = {**overrides, "solver.allowUnstable": True, "output.times": "none", "output.images": False}
-    is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder)
-    k_star = predicted_bound(folder, fact)
+    is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder, fact)
+    k_star = predicted_bound(folder, fact, 1.0 / 1000)
     if k_star is None:
         raise RuntimeError(f"the run in {folder} has no {fact} among its facts")
-    glue_bound = predicted_bound(folder, GLUE) if fact != GLUE else None
+    glue_bound = predicted_bound(folder, GLUE, 1.0 / 1000) if fact == ELASTIC else None
     horizon = max(5.0, 200 * k_star)
-    steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star))
+    steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star), fact)
     stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
     observed = 0.5 * (stable_k + unstable_k)
-    return {"T": horizon, "predicted": k_star, "glueBound": glue_bound, "stableK": stable_k,
-            "unstableK": unstable_k, "observed": observed, "difference": observed / k_star - 1, "stableN": steps}
+    return {"scheme": overrides.get("time.scheme", "euler"), "T": horizon, "predicted": k_star,
+            "glueBound": glue_bound, "stableK": stable_k, "unstableK": unstable_k, "observed": observed,
+            "difference": observed / k_star - 1, "stableN": steps}
+
+
+def strong_damage(E: float, horizon: float) -> dict:
+    """λ_u large enough that ζ falls far below 1 within the horizon (to about 0.02 at E/η = 5, to
+    the obstacle ζ = 0 from E/η = 50 up): ε:ε scales as 1/E² under the scene's loads."""
+    lambda_u = 1000.0 * (E / 1000.0) ** 2 * (10.0 / horizon)
+    return {"body1.damage.lambdaU": lambda_u, "body2.damage.lambdaU": lambda_u}
+
+
+def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, multiples=(0.25, 1, 10, 100)) -> list[dict]:
+    """The implicit schemes with strong damage at k = m k* (k* the paper's scheme's elastic bound):
+    whether the run passes the driver's divergence and chatter checks, its largest growth of ‖u‖_V
+    in one step once the loads are held, the ζ it reaches, and ‖u(T)‖_V against bdf2 at k*/16,
+    checked by the paper's scheme at k*/16 (referenceCheck: their relative difference)."""
+    from orchestrate.freefem import SolverError
+    from orchestrate.runner import run
+
+    quiet = {**base, "body1.material.E": E, "body2.material.E": E, "output.times": "none", "output.images": False}
+    run(scene_path, folder, {**quiet, "time.T": 1.0, "time.N": 1000, "solver.allowUnstable": True}, force=True)
+    k_star = predicted_bound(folder, ELASTIC, 1.0 / 1000)
+    horizon = max(5.0, 200 * k_star)
+    damaged = {**quiet, **strong_damage(E, horizon), "time.T": horizon}
+    fine = {**damaged, "time.N": 16 * int(np.ceil(horizon / k_star))}
+    check_norm = run(scene_path, folder, fine, force=True).history["normV"][-1]
+    reference_norm = run(scene_path, folder, {**fine, "time.scheme": "bdf2"}, force=True).history["normV"][-1]
+    reference_facts = read_json(folder / "run.json")
+    nodes = reference_facts["nodes1"] + reference_facts["nodes2"]
+    rows = []
+    for scheme in IMPLICIT:
+        for multiple in multiples:
+            steps = max(2, round(horizon / (multiple * k_star)))
+            row = {"term": "implicit elasticity", "scheme": scheme, "parameter": E / eta, "damage": "strong",
+                   "lambdaU": damaged["body1.damage.lambdaU"], "T": horizon, "predicted": k_star,
+                   "kOverKStar": horizon / steps / k_star, "stableN": steps,
+                   "referenceCheck": check_norm / reference_norm - 1}
+            try:
+                history = run(scene_path, folder, {**damaged, "time.scheme": scheme, "time.N": steps}, force=True).history
+            except SolverError as error:
+                if error.returncode != 5:
+                    raise
+                rows.append({**row, "checks": "stopped: diverged"})
+                continue
+            below = read_json(folder / "run.json")["zetaBelowCriticalStep"]
+            held = history["t"] > 1.0 + 1e-12
+            ratios = history["normV"][1:][held[1:]] / history["normV"][:-1][held[1:]]
+            rows.append({**row, "checks": "passed", "growth": float(ratios.max()) if ratios.size else float("nan"),
+                         "zetaMin": float(min(history["zetaMin1"][-1], history["zetaMin2"][-1])),
+                         "zetaZeroFraction": float(history["zetaBelowMin1"][-1] + history["zetaBelowMin2"][-1]) / nodes,
+                         "normVDifference": history["normV"][-1] / reference_norm - 1,
+                         "zetaBelowCriticalAt": below * horizon / steps if below else None})
+    return rows
 
 
 def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0),
               glue=(100.0, 1000.0, 10000.0)) -> list[dict]:
-    """Predicted and observed explicit bounds: the elastic k* for several E/η, with damage and
-    with λ_u = 0, on `scene_path`; the tangential glue bound 2/ρ_τ for several p_τ on the shear
-    scene set up so that the glue alone sets the bound (GLUE_ALONE)."""
+    """Predicted and observed bounds of the explicit terms, on `scene_path` with coarse meshes:
+    the paper's scheme's elastic k* for several E/η, with damage and with λ_u = 0; the implicit
+    schemes far above it with strong damage; the damage source's bound per scheme (SOURCE_ALONE);
+    and the tangential glue bound glueLimit/ρ_τ per scheme for several p_τ on the shear scene set
+    up so that the glue alone sets the bound (GLUE_ALONE)."""
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     eta = Scene.load(scene_path).body1.material.eta
-    held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)"}
+    held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)",
+            "body1.mesh.n": 6, "body2.mesh.n": 8}
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(scratch) / "run"
         for E in young:
             for damage in ("on", "off"):
-                overrides = {**held, "body1.mesh.n": 6, "body2.mesh.n": 8, "body1.material.E": E,
-                             "body2.material.E": E}
+                overrides = {**held, "body1.material.E": E, "body2.material.E": E}
                 if damage == "off":
                     overrides.update({"body1.damage.lambdaU": 0.0, "body2.damage.lambdaU": 0.0})
                 rows.append({"term": "elastic", "parameter": E / eta, "damage": damage,
                              **threshold(scene_path, overrides, folder, ELASTIC)})
-        for p_tau in glue:
-            rows.append({"term": "tangential glue", "parameter": p_tau, "damage": "on",
-                         **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau}, folder, GLUE)})
-    write_csv(out / "stability.csv", rows)
+        for E in young:
+            rows += implicit_rows(scene_path, held, E, eta, folder)
+        for scheme in ("euler", "bdf2"):
+            rows.append({"term": "damage source", "parameter": ZETA_EQUILIBRIUM, "damage": "on",
+                         **threshold(scene_path, {**SOURCE_ALONE, "time.scheme": scheme}, folder, SOURCE)})
+        for scheme in ("euler", *IMPLICIT):
+            for p_tau in glue:
+                rows.append({"term": "tangential glue", "parameter": p_tau, "damage": "on",
+                             **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau, "time.scheme": scheme},
+                                         folder, GLUE)})
+    write_csv(out / "stability.csv", rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
     (out / "README.md").write_text(stability_report(rows, f"python -m orchestrate study stability "
                                                           f"{Path(scene_path).as_posix()}"))
     plot(out / "stability.png", rows)
@@ -119,17 +201,36 @@ def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000
 
 
 def plot(target: Path, rows: list[dict]) -> None:
-    """Observed against predicted bounds, one marker per term, on log axes."""
-    figure, axis = pyplot().subplots(figsize=(6, 5))
-    series = (("elastic", "off", "o", "elastic, λ_u = 0"), ("elastic", "on", "s", "elastic, damage on"),
-              ("tangential glue", "on", "^", "tangential glue"))
-    for term, damage, marker, label in series:
-        points = [(row["predicted"], row["observed"]) for row in rows if row["term"] == term and row["damage"] == damage]
+    """Left: observed against predicted bounds, one marker per term and scheme. Right: the
+    implicit schemes far above k* with strong damage, |‖u(T)‖_V difference| to the reference."""
+    figure, (bounds, implicit) = pyplot().subplots(1, 2, figsize=(11, 5))
+    series = (("elastic", "off", "euler", "o", "elastic (euler), λ_u = 0"),
+              ("elastic", "on", "euler", "s", "elastic (euler), damage on"),
+              ("damage source", "on", "euler", "D", "damage source (euler)"),
+              ("damage source", "on", "bdf2", "d", "damage source (bdf2)"),
+              ("tangential glue", "on", "euler", "^", "tangential glue (euler)"),
+              ("tangential glue", "on", "semi-implicit", "v", "tangential glue (semi-implicit)"),
+              ("tangential glue", "on", "bdf2", "<", "tangential glue (bdf2)"))
+    measured = [row for row in rows if "observed" in row]
+    for term, damage, scheme, marker, label in series:
+        points = [(row["predicted"], row["observed"]) for row in measured
+                  if (row["term"], row["damage"], row["scheme"]) == (term, damage, scheme)]
         if points:
-            axis.loglog(*zip(*points), marker, label=label, mfc="none")
-    limits = [min(row["predicted"] for row in rows) / 1.5, max(row["predicted"] for row in rows) * 1.5]
-    axis.loglog(limits, limits, "k:", lw=1, label="observed = predicted")
-    log_axes(axis, "predicted bound (2/ρ, 2/ρ_τ)", "observed threshold k")
+            bounds.loglog(*zip(*points), marker, label=label, mfc="none")
+    limits = [min(row["predicted"] for row in measured) / 1.5, max(row["predicted"] for row in measured) * 1.5]
+    bounds.loglog(limits, limits, "k:", lw=1, label="observed = predicted")
+    log_axes(bounds, "predicted bound (2/ρ, 2ζ²/λ_D, glueLimit/ρ_τ …)", "observed threshold k")
+    for scheme, marker in zip(IMPLICIT, "os"):
+        for ratio in sorted({row["parameter"] for row in rows if row["term"] == "implicit elasticity"}):
+            points = [(row["kOverKStar"], abs(row["normVDifference"])) for row in rows
+                      if row["term"] == "implicit elasticity" and row["scheme"] == scheme
+                      and row["parameter"] == ratio and row["checks"] == "passed"]
+            if points:
+                implicit.loglog(*zip(*points), marker + ("-" if scheme == "bdf2" else "--"), mfc="none",
+                                label=f"{scheme}, E/η = {ratio:.3g}")
+    implicit.set_title("stable far above k*, with strong damage: accuracy", fontsize=10)
+    log_axes(implicit, "k / k* (k* the paper's scheme's bound)", "|‖u(T)‖_V / reference − 1|")
+    implicit.legend(fontsize=7, ncol=2)
     save(figure, target)
 
 

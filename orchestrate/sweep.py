@@ -10,7 +10,6 @@ interrupted sweep started again runs only what is missing, and an edited input r
 """
 from __future__ import annotations
 
-import csv
 import hashlib
 import itertools
 import json
@@ -19,6 +18,7 @@ import re
 from pathlib import Path
 
 from orchestrate.manifest import IncompleteRun, verify_manifest
+from orchestrate.reports import write_csv
 from orchestrate.scene import Scene, SceneError, parse_value
 
 FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
@@ -71,7 +71,8 @@ def run_one(scene_data: dict, folder: str) -> dict:
 def row_of(folder: Path, status: str) -> dict:
     summary = json.loads((folder / "summary.json").read_text())
     final = summary["final"]
-    return {"status": status, "error": "", "wallSeconds": summary.get("wallSeconds"),
+    return {"status": status, "error": "", "warnings": "; ".join(summary.get("warnings", [])),
+            "wallSeconds": summary.get("wallSeconds"),
             "contactItersPerStep": summary.get("contactItersPerStep"), **{name: final.get(name) for name in FIGURES}}
 
 
@@ -217,13 +218,7 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
 
 
 def write_table(path: Path, rows: list[dict], keys: list[str]) -> None:
-    columns = [*keys, "folder", "status", "error", "wallSeconds", "contactItersPerStep", *FIGURES]
-    partial = path.with_suffix(".csv.partial")
-    with open(partial, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
-    partial.replace(path)
+    write_csv(path, rows, [*keys, "folder", "status", "error", "warnings", "wallSeconds", "contactItersPerStep", *FIGURES])
 
 
 # --- command line ---------------------------------------------------------------------------

@@ -41,9 +41,9 @@ def same_results(first: Path, second: Path) -> None:
     assert history[0] == history[1]
 
 
-def killed_driver(folder: Path, at_rows: int) -> None:
+def killed_driver(folder: Path, at_rows: int, extra: tuple = ()) -> None:
     """The driver run into `folder`, killed (SIGKILL) once its history has `at_rows` rows."""
-    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)]), cwd=REPO, env=freefem_env(),
+    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, *extra, "-out", str(folder)]), cwd=REPO, env=freefem_env(),
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while process.poll() is None and rows(folder) < at_rows and time.time() < deadline:
@@ -72,6 +72,22 @@ def test_a_killed_run_continued_from_its_checkpoint_is_the_uninterrupted_run(tmp
     same_results(uninterrupted, folder)
     assert restarted["files"] == json.loads((uninterrupted / "run.json").read_text())["files"]
     assert not list(folder.glob("checkpoint-*"))  # a finished run keeps none
+
+
+# The implicit schemes read two steps back (u, strains, jumps, zeta, beta and the bonding rate):
+# a restart must bring back both, also with the lazily made contact columns of the active set.
+@pytest.mark.parametrize("scheme, kill_at", [("semi-implicit", 140), ("bdf2", 20), ("bdf2", 333)])
+def test_a_killed_run_of_an_implicit_scheme_continues_to_the_bit(tmp_path, scheme, kill_at):
+    extra = ("-scheme", scheme)
+    whole = tmp_path / "whole"
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", whole])
+    assert done.returncode == 0, done.error_line
+    folder = tmp_path / "run"
+    killed_driver(folder, kill_at, extra)
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", folder, "-restart", folder])
+    assert done.returncode == 0, done.error_line
+    assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= kill_at
+    same_results(whole, folder)
 
 
 @pytest.mark.parametrize("flags, words", [

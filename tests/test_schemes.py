@@ -162,3 +162,46 @@ def test_bdf2_s_glue_bound_is_enforced_with_its_own_matrix(tmp_path):
     with pytest.raises(SolverError, match=r"bound 0.888889/rho_tau") as error:
         run(GLUE_SCENE, tmp_path / "run", overrides)
     assert "use N >= " in str(error.value)
+
+
+def test_the_bonding_step_s_positivity_level_is_printed_and_its_breach_named(tmp_path):
+    """The peel scene (γ_ν = 100, L = 0.5, T = 2) with the semi-implicit scheme, which no elastic
+    bound holds back: at N = 40 (k = 0.05) the explicit bonding step keeps β ≥ 0 only while the
+    opening stays below 1/sqrt(kγ_ν) = 0.447; the lifted end opens past it and the run stops
+    naming the step that would hold for any opening, N >= T γ_ν L² = 50; that N runs."""
+    from orchestrate import SolverError, run
+
+    peel = REPO / "scenes" / "peel.toml"
+    quiet = {"time.scheme": "semi-implicit", "output.times": "none", "output.images": False}
+    with pytest.raises(SolverError) as stopped:
+        run(peel, tmp_path / "40", {**quiet, "time.N": 40})
+    assert stopped.value.returncode == 5
+    assert "the explicit bonding step overshoots where the opening exceeds 0.447214" in stopped.value.message
+    assert "N >= 50 keeps beta >= 0" in stopped.value.message
+    facts = json.loads((tmp_path / "40.failed" / "run.json").read_text())
+    assert facts["openingCritical"] == pytest.approx(1 / np.sqrt(0.05 * 100), rel=1e-12)
+    result = run(peel, tmp_path / "50", {**quiet, "time.N": 50})
+    assert result.history["betaMin"].min() >= 0
+
+
+@pytest.mark.parametrize("scheme, limit", [("euler", 2.0), ("bdf2", 4.0 / 3.0)])
+def test_the_damage_source_bound_is_sharp_for_each_scheme(tmp_path, scheme, limit):
+    """A uniform ζ near the equilibrium ζ_eq = 0.1 of ζ' = λ_D (1 − ζ)/ζ + λ_w (no loads, λ_u = 0):
+    linearized, ζ − ζ_eq obeys the scheme's recursion for the rate λ_D/ζ_eq², stable up to
+    k λ_D/ζ_eq² = 2 (euler) or 4/3 (bdf2's extrapolation, docs/model-choices.md). The bisection of
+    the stability study observes the threshold within one step of that number."""
+    from orchestrate.stability import SOURCE, SOURCE_ALONE, ZETA_EQUILIBRIUM, threshold
+
+    row = threshold(REPO / "scenes" / "paper.toml", {**SOURCE_ALONE, "time.scheme": scheme}, tmp_path / "run", SOURCE)
+    exact = limit * ZETA_EQUILIBRIUM ** 2 / SOURCE_ALONE["body1.damage.lambdaD"]
+    assert row["predicted"] == pytest.approx(exact, rel=1e-12)
+    assert row["stableK"] <= exact * (1 + 1e-9) and row["unstableK"] >= exact * (1 - 1e-9), row
+
+
+def test_bdf2_s_glue_bound_is_sharp(tmp_path):
+    """The glue alone on soft bodies (the top glue mode carries almost no elasticity): bdf2's
+    threshold is its 8/9 root condition, with ρ_τ of its own matrix, within 2 %."""
+    from orchestrate.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
+
+    row = threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": 100.0, "time.scheme": "bdf2"}, tmp_path / "run", GLUE)
+    assert abs(row["difference"]) < 0.02, row

@@ -33,3 +33,19 @@ def test_errors_fall_at_least_at_the_theorems_rates(quick):
             assert rows[0][quantity] > rows[1][quantity] > 0, (ladder, quantity)
     observed = {ladder: rates(table, ladder)["errorV"]["successive"] for ladder in ("lockstep", "time", "space")}
     assert observed["lockstep"] >= 0.75 and observed["space"] >= 0.75 and observed["time"] >= 1.0, observed
+
+
+def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_not_run(tmp_path):
+    """A time ladder per scheme on one mesh, N = 10 … 160, against bdf2 at N = 320: euler's N = 10
+    exceeds k* = 0.052 (N >= 20, MODEL.md §7) and is reported as refused, not dropped silently;
+    bdf2's successive differences over the finest levels fall as k²."""
+    table = convergence(REPO / "scenes" / "paper.toml", tmp_path, count=2, kinds=("time",), schemes=("euler", "bdf2"),
+                        time_steps=10, time_count=5, time_mesh_level=1)
+    euler = [row for row in table if row["ladder"] == "time euler"]
+    assert "exceeds the explicit elastic bound" in euler[0]["status"] and "errorV" not in euler[0]
+    assert [row["status"] for row in euler[1:]] == ["ran"] * 4
+    report = (tmp_path / "README.md").read_text()
+    assert "| 10 | did not run: time step k = T/N = 0.1 exceeds" in report and "Reference: bdf2 with N = 320" in report
+    bdf2 = rates(table, "time bdf2")
+    assert 1.8 < bdf2["errorV"]["successive"] < 2.3, bdf2
+    assert 0.9 < rates(table, "time euler")["errorV"]["reference"] < 1.1
