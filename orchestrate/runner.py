@@ -285,7 +285,10 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():
-                summary = build(scene, partial, progress, mesh_cache, solver_flags, restart)
+                planned, plan = resolve_steps(scene, partial, mesh_cache, restart)
+                summary = build(planned, partial, progress, mesh_cache, solver_flags, restart)
+                if plan:
+                    summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
                 (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
                 write_manifest(partial, inputs)
@@ -413,6 +416,26 @@ def follow_history(path: Path, bar, done: threading.Event) -> None:
         if now > rows:
             bar.update(now - max(rows, 0))
             rows = now
+
+
+def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: bool) -> tuple[Scene, dict | None]:
+    """The scene with its N, and the plan (steps.json) when time.N is "auto": chosen by pilot runs
+    (orchestrate/steps.py), or read back when a run of it is continued from its checkpoint."""
+    if scene.time.N != "auto":
+        return scene, None
+    plan_file = folder / "steps.json"
+    if restart and plan_file.is_file():
+        plan = json.loads(plan_file.read_text())
+    else:
+        from orchestrate.steps import StepsError, choose_steps
+
+        try:
+            plan = choose_steps(scene, folder / "pilots", mesh_cache)
+        except StepsError as error:
+            raise SceneError(str(error)) from None
+        plan_file.write_text(json.dumps(plan, indent=1) + "\n")
+    time_grid = scene.time.model_copy(update={"N": plan["N"], "targetError": None})
+    return scene.model_copy(update={"time": time_grid}), plan
 
 
 def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple, restart: bool):

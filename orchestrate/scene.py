@@ -207,10 +207,33 @@ class Body(Strict):
         return self
 
 
+def _steps(value):
+    """time.N: an integer in the table's range, or "auto"."""
+    if value == "auto":
+        return value
+    bounds = PARAMETERS["N"].bounds
+    if not isinstance(value, int) or isinstance(value, bool) or not bounds["ge"] <= value <= bounds["le"]:
+        raise ValueError(f'Input should be an integer in {PARAMETERS["N"].range} or "auto"')
+    return value
+
+
 class Time(Strict):
+    """N = "auto" chooses the steps for targetError (orchestrate/steps.py, docs/model-choices.md)."""
     T: float = field("T")
-    N: int = field("N")
+    N: Annotated[Union[int, Literal["auto"]], BeforeValidator(_steps)] = Field(
+        PARAMETERS["N"].value(), description=PARAMETERS["N"].meaning + ', or "auto" (with targetError)')
     scheme: Literal[PARAMETERS["scheme"].choices] = field("scheme")
+    targetError: float | None = Field(None, strict=True, gt=0, le=0.5, allow_inf_nan=False,
+                                      description='with N = "auto": the relative time error of u(T) in the V norm '
+                                                  'to reach')
+
+    @model_validator(mode="after")
+    def target_with_auto(self):
+        if self.N == "auto" and self.targetError is None:
+            raise ValueError('N = "auto" needs targetError, the relative time error to reach (e.g. 1e-3)')
+        if self.N != "auto" and self.targetError is not None:
+            raise ValueError(f'targetError applies to N = "auto" only (N = {self.N} here)')
+        return self
 
 
 class Glue(Strict):

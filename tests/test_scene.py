@@ -38,7 +38,7 @@ BAD = [
     ("[body1.material]", "[body1.materal]", ["body1.materal: unknown key", "did you mean 'material'"]),
     ("[solver]", "[solverr]", ["solverr: unknown key", "did you mean 'solver'"]),
     ("bmOmega = 1.0", "bmOmegaa = 1.0", ["solver.bmOmegaa: unknown key", "did you mean 'bmOmega'"]),
-    ("N = 40", "N = 0", ["time.N = 0", "greater than or equal to 1"]),
+    ("N = 40", "N = 0", ["time.N = 0", "an integer in [1, 10000000]"]),
     ("N = 40", "N = 40.5", ["time.N = 40.5", "integer"]),
     ("T = 1.0", 'T = "one"', ["time.T = 'one'", "valid number"]),
     ("T = 1.0", "T = -1.0", ["time.T = -1.0", "greater than 0"]),

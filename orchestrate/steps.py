@@ -1,0 +1,102 @@
+"""How many time steps for a target time error: `time.N = "auto"` with `time.targetError`.
+
+The rule (docs/model-choices.md, "Steps for a target time error"): a scheme of order p has a
+time error e(N) ≈ C/N^p once N is in its asymptotic range. Three pilot runs at N_a, 2N_a and 4N_a,
+on the scene's meshes one level coarser, give the two distances d₁ = ‖u_{N_a}(T) − u_{2N_a}(T)‖_V
+and d₂ = ‖u_{2N_a}(T) − u_{4N_a}(T)‖_V; their ratio is 2^q, q the observed order. The error of the
+finest pilot is then d₂/(2^p − 1), and N = ⌈4N_a·(e(4N_a)/target)^{1/p}⌉ with p = min(q, the
+scheme's order) (a lower observed order gives more steps, never fewer). N_a is the smallest of
+10·2^j that runs (an explicit bound may refuse the smaller) and whose observed order is within
+[0.8, 1.3] times the scheme's (else the pilots are not yet asymptotic and N_a is doubled). Errors
+are relative to ‖u(T)‖_V. It is an estimate on coarser meshes, not a bound: the run records it
+(steps.json) next to the N it chose.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+ORDER = {"euler": 1, "semi-implicit": 1, "bdf2": 2}
+FIRST_PILOT, MOST_DOUBLINGS = 10, 10
+ASYMPTOTIC = (0.8, 1.3)  # observed order / the scheme's, for pilots in their asymptotic range
+
+
+class StepsError(RuntimeError):
+    """No N could be chosen: the pilots never ran, or never reached their asymptotic range."""
+
+
+def coarser(mesh) -> dict:
+    """A mesh one level coarser: one refinement fewer, else half the elements per side."""
+    if mesh.refine > 0:
+        return {"refine": mesh.refine - 1}
+    return {"n": max(2, mesh.n // 2)}
+
+
+def pilot_overrides(scene, steps: int) -> dict:
+    overrides = {"time.N": steps, "output.times": "final", "output.fields": ["state"], "output.images": False,
+                 "output.checkpointEvery": 0, "output.checkpointSeconds": 0.0}
+    for name, body in (("body1", scene.body1), ("body2", scene.body2)):
+        overrides.update({f"{name}.mesh.{key}": value for key, value in coarser(body.mesh).items()})
+    return overrides
+
+
+def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | None:
+    """A pilot run at N = steps into `folder`; None when the solver refuses or fails it."""
+    from orchestrate.runner import SolverError, run
+
+    manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
+    try:
+        run(manual, folder, pilot_overrides(scene, steps), force=True, mesh_cache=mesh_cache)
+    except SolverError:
+        return None
+    return folder
+
+
+def relative_distance(first: Path, second: Path, first_steps: int, second_steps: int) -> float:
+    from orchestrate.convergence import distances
+
+    row = distances(first, second, first_steps, second_steps, 1)[0]
+    return row["errorV"] / row["normV"] if row["normV"] > 0 else 0.0
+
+
+def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
+    """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
+    target, order = scene.time.targetError, ORDER[scene.time.scheme]
+    work.mkdir(parents=True, exist_ok=True)
+    folders: dict[int, Path | None] = {}
+
+    def ran(steps: int) -> Path | None:
+        if steps not in folders:
+            folders[steps] = pilot(scene, steps, work / f"N{steps}", mesh_cache)
+        return folders[steps]
+
+    pilots = []
+    try:
+        steps = FIRST_PILOT
+        for _ in range(MOST_DOUBLINGS):
+            if ran(steps) and ran(2 * steps) and ran(4 * steps):
+                d1 = relative_distance(folders[steps], folders[2 * steps], steps, 2 * steps)
+                d2 = relative_distance(folders[2 * steps], folders[4 * steps], 2 * steps, 4 * steps)
+                observed = math.log2(d1 / d2) if d1 > 0 and d2 > 0 else float(order)
+                pilots.append({"N": steps, "distance1": d1, "distance2": d2, "observedOrder": observed})
+                if ASYMPTOTIC[0] <= observed / order <= ASYMPTOTIC[1] or d2 == 0:
+                    break
+            steps *= 2
+        else:
+            raise StepsError(f"time.N = 'auto': no pilots from N = {FIRST_PILOT} to {FIRST_PILOT * 2 ** MOST_DOUBLINGS} "
+                             f"both ran and showed the {scene.time.scheme} scheme's order {order} (tried: "
+                             f"{json.dumps(pilots) if pilots else 'none ran'}); give time.N yourself")
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    last = pilots[-1]
+    p = max(0.5, min(last["observedOrder"], order))
+    finest = 4 * last["N"]
+    error = last["distance2"] / (2 ** p - 1)
+    chosen = max(last["N"], math.ceil(finest * (error / target) ** (1 / p))) if error > 0 else last["N"]
+    return {"rule": "time.N = 'auto' (orchestrate/steps.py)", "scheme": scene.time.scheme, "schemeOrder": order,
+            "targetError": target, "pilotMeshes": {name: coarser(body.mesh) for name, body in
+                                                   (("body1", scene.body1), ("body2", scene.body2))},
+            "pilots": pilots, "orderUsed": p, "finestPilotError": error, "N": chosen,
+            "estimatedError": error * (finest / chosen) ** p}
