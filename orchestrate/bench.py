@@ -1,23 +1,29 @@
-"""python -m orchestrate bench: run time against error for the paper's scene on this machine.
+"""python -m orchestrate bench: how long for a given error, on the paper's scene, on this machine.
 
-Three variants, each a lock-step ladder (n doubled and time step halved together, N = 20·2^ℓ),
-run one after the other so that no run competes with another for the two cores:
-  uniform, pdas   the paper's structured meshes, body 1 with 6·2^ℓ elements per side, the
-                  active-set contact solver (the default)
-  uniform, bm     the same runs with Bermúdez–Moreno, the paper's contact algorithm
-  graded, pdas    scenes/paper_graded.toml: gmsh meshes graded toward the singular points by a
-                  power of the distance, n = 6·2^ℓ for body 1 (the grading strengthens with ℓ)
-Per level (the fastest of REPEATS runs): the time split (FreeFem++ start-up, meshing with an empty
-cache, set-up, time loop, output), the overhead ratio (time per step over the back-substitutions
-a step cannot avoid, measured in the same process), and the error ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V
-against one common reference for every variant: the graded mesh one level finer than the finest
-measured graded level, with twice its steps (edp/tools/errors.edp interpolates each run onto the
-reference's meshes). With --check-reference, a uniform run finer than every measured level is
-also measured against the reference (that distance bounds what the reference's own error can do
-to the figures), and every run against it, so the graded gains can be read against either.
-Also: the sparse solvers timed on each matrix of the finest uniform level, and the graded meshes'
-gain at equal error (both work–precision curves interpolated in log–log). Writes bench.csv,
-README.md and workprecision.png.
+Variants: every time scheme (euler, the paper's; semi-implicit; bdf2) on each mesh family
+(uniform: the paper's structured meshes, body 1 with 6·2^ℓ elements per side; graded:
+scenes/paper_graded.toml, n = 6·2^ℓ, graded toward the singular points), the active-set contact
+solver throughout (Bermúdez–Moreno against it: tests/test_fast_paths.py).
+
+Steps per level, balanced (docs/model-choices.md, "The benchmark's steps"): each scheme's time
+error model comes from the pilots of time.N = "auto" (orchestrate/steps.py) on uniform level 0;
+at every level the space error s_ℓ of a family is bdf2's measured error there (bdf2 itself aims
+at fraction·s_{ℓ−1}/4, 1e-4 at level 0: the space error falls by less than 4 a level, so its time
+error stays below fraction·s_ℓ), and every other scheme takes the N whose estimated time error
+is fraction·s_ℓ (default fraction 1/4).
+
+The reference is the graded mesh two levels finer than the finest measured, the check an
+independent one of the same size: the graded level between them split once (nested in that
+level, so its nodes are not the reference's), both bdf2 with the N of a 1e-6 time error. The check's distance to the
+reference bounds what the reference's own error can do to the figures; the report says whether
+it is four times below the smallest error reported.
+
+Per point (the fastest of REPEATS runs when a run takes under REPEAT_BELOW seconds): wall time
+split into start-up, meshing (warm cache), set-up, loop and output, the overhead ratio (time per
+step over the back-substitutions a step cannot avoid, measured in the same process), peak memory
+after set-up and at the end (run.json), and ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V. Also: the sparse
+solvers timed on each matrix of the finest uniform level. Writes bench.csv, README.md and
+workprecision.png.
 """
 from __future__ import annotations
 
@@ -29,43 +35,37 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.convergence import distances
-from orchestrate.freefem import REPO, run_script
+from orchestrate.freefem import REPO, SolverError, run_script
 from orchestrate.manifest import facts
 from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.reports import bench_report, write_csv
 from orchestrate.results import load_result
 from orchestrate.runner import run
+from orchestrate.scene import Scene
+from orchestrate.steps import ORDER, steps_for, time_error_model
 
-REFERENCE = "reference"
-CHECK = "reference check"
+SCHEMES = tuple(ORDER)
+FAMILIES = {"uniform": REPO / "scenes" / "paper.toml", "graded": REPO / "scenes" / "paper_graded.toml"}
+REFERENCE, CHECK = "reference", "reference check"
 MEASURE = 10  # repetitions of the unavoidable back-substitutions timed after each run
-REPEATS = 3  # runs of each measured level, the fastest kept: this machine's timings drift by ±20 %
+REPEATS, REPEAT_BELOW = 3, 20.0  # this machine's timings drift by ±20 %: short runs are repeated
+FIRST_TARGET = 1e-4  # bdf2's time target at level 0, below every space error reported
+REFERENCE_TARGET = 1e-6  # the time error of the reference and of the check
+MOST_DOUBLINGS = 6  # of N, for a level whose N an explicit bound refuses
+TARGETS = (1e-2, 2e-3)  # the errors the report reads every curve at
 
 
-PAPER, GRADED = REPO / "scenes" / "paper.toml", REPO / "scenes" / "paper_graded.toml"
+def mesh_level(family: str, l: int) -> dict:
+    """Level l of a family: n1 = 6·2^l, n2 = 8·2^l; uniform structured given explicitly (every
+    level meshed, none read from the committed default)."""
+    overrides = {"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l}
+    if family == "uniform":
+        overrides.update({"body1.mesh.structured": True, "body2.mesh.structured": True})
+    return overrides
 
 
-def level(l: int, steps: int | None = None) -> dict:
-    """Level l of the ladder: n1 = 6·2^l, n2 = 8·2^l, N = 20·2^l unless `steps` is given."""
-    return {"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l, "time.N": steps or 20 * 2 ** l}
-
-
-def uniform_level(l: int, steps: int | None = None) -> dict:
-    # structured given explicitly: every level is meshed, none read from the committed default
-    return {**level(l, steps), "body1.mesh.structured": True, "body2.mesh.structured": True}
-
-
-def variants(levels: int, check_reference: bool = False) -> dict[str, tuple[Path, list[dict]]]:
-    """`levels` measured uniform levels; one fewer graded, whose next level, with twice its steps,
-    is the reference; the check is the uniform level two finer than the last, at the reference's N."""
-    uniform = [uniform_level(l) for l in range(levels)]
-    ladders = {"uniform, pdas": (PAPER, uniform),
-               "uniform, bm": (PAPER, [{**overrides, "solver.contactSolver": "bm"} for overrides in uniform]),
-               "graded, pdas": (GRADED, [level(l) for l in range(levels - 1)]),
-               REFERENCE: (GRADED, [level(levels - 1, 20 * 2 ** levels)])}
-    if check_reference:
-        ladders[CHECK] = (PAPER, [uniform_level(levels + 1, 20 * 2 ** levels)])
-    return ladders
+def variant_name(scheme: str, family: str) -> str:
+    return f"{scheme}, {family}"
 
 
 def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
@@ -82,15 +82,29 @@ def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
             "setup": timing["solverSetupCpu"], "loop": timing["solverLoopCpu"] - measured,
             "output": timing["solverOutputCpu"], "wall": timing["meshing"] + solver_wall,
             "overheadRatio": (timing["solverLoopCpu"] - measured) / steps / timing["backsubsPerStep"],
+            "setupMemoryMB": counts.get("setupPeakMemoryMB"), "peakMemoryMB": counts.get("peakMemoryMB"),
             "contactIters": float(result.history["contactIters"].mean()), "normV": float(result.history["normV"][-1])}
 
 
-def fastest_run(scene: Path, overrides: dict, folder: Path, cache: Path, repeats: int) -> dict:
-    """The fastest of `repeats` runs (by FreeFem++'s own wall time); meshing is the first run's,
-    with the cache still empty."""
-    runs = [timed_run(scene, overrides, folder, cache) for _ in range(repeats)]
-    best = min(runs, key=lambda row: row["wall"] - row["meshing"])
-    return {**best, "meshing": runs[0]["meshing"], "wall": best["wall"] - best["meshing"] + runs[0]["meshing"]}
+def fastest_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
+    """The fastest of up to REPEATS runs (by wall time; the cache is warm from the second on, so
+    meshing is read from it); a first run that takes REPEAT_BELOW seconds or more is kept alone."""
+    runs = [timed_run(scene, overrides, folder, cache)]
+    if runs[0]["wall"] < REPEAT_BELOW:
+        runs += [timed_run(scene, overrides, folder, cache) for _ in range(REPEATS - 1)]
+    return min(runs, key=lambda row: row["wall"])
+
+
+def stable_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
+    """fastest_run at the overrides' N, doubled while an explicit bound refuses it."""
+    for _ in range(MOST_DOUBLINGS):
+        try:
+            return fastest_run(scene, overrides, folder, cache)
+        except SolverError as error:
+            if error.returncode != 3:
+                raise
+            overrides = {**overrides, "time.N": 2 * overrides["time.N"]}
+    raise RuntimeError(f"no stable N up to {overrides['time.N']} for {overrides}")
 
 
 def final_distance(run_folder: Path, reference: Path) -> float:
@@ -111,32 +125,70 @@ def solver_table(folder: Path, steps: int) -> list[dict]:
                  "solveSeconds": float(row["solveSeconds"])} for row in csv.DictReader(handle)]
 
 
-def bench(out: str | Path, levels: int = 5, check_reference: bool = False) -> list[dict]:
+def error_models(scratch: Path) -> dict[str, dict]:
+    """Each scheme's time error model: the pilots of time.N = "auto" on uniform level 0."""
+    models = {}
+    for scheme in SCHEMES:
+        scene = Scene.load(FAMILIES["uniform"], {**mesh_level("uniform", 1), "time.scheme": scheme})
+        models[scheme] = time_error_model(scene, scratch / "pilots" / scheme, scratch / "meshes")
+    return models
+
+
+def references(levels: int, models: dict, scratch: Path) -> list[dict]:
+    steps = steps_for(models["bdf2"], REFERENCE_TARGET)[0]
+    rows = []
+    for name, overrides in ((REFERENCE, mesh_level("graded", levels + 1)),
+                            (CHECK, {**mesh_level("graded", levels), "body1.mesh.refine": 1, "body2.mesh.refine": 1})):
+        folder = scratch / name.replace(" ", "-")
+        rows.append({"variant": name, "scheme": "bdf2", "family": "graded", "level": "", "folder": folder,
+                     **timed_run(FAMILIES["graded"], {**overrides, "time.scheme": "bdf2", "time.N": steps},
+                                 folder, scratch / "meshes")})
+    return rows
+
+
+def family_rows(family: str, levels: int, fraction: float, models: dict, reference: Path, scratch: Path) -> list[dict]:
+    """Every scheme at every level of a family, N balanced against the level's space error."""
+    rows, space = [], []
+    for l in range(levels):
+        target = FIRST_TARGET if l == 0 else fraction * space[-1] / 4
+        for scheme in ("bdf2", *(s for s in SCHEMES if s != "bdf2")):
+            if scheme != "bdf2":
+                target = fraction * space[-1]
+            steps, estimated = steps_for(models[scheme], target)
+            folder = scratch / f"{scheme}-{family}" / f"level{l}"
+            row = {"variant": variant_name(scheme, family), "scheme": scheme, "family": family, "level": l,
+                   "folder": folder, "timeTarget": target,
+                   **stable_run(FAMILIES[family], {**mesh_level(family, l), "time.scheme": scheme, "time.N": steps},
+                                folder, scratch / "meshes")}
+            row["estimatedTimeError"] = estimated * (steps / row["N"]) ** models[scheme]["orderUsed"]  # N doubled?
+            row["errorToReference"] = final_distance(folder, reference)
+            if scheme == "bdf2":
+                space.append(row["errorToReference"])
+            rows.append(row)
+    return rows
+
+
+def bench(out: str | Path, levels: int = 5, fraction: float = 0.25) -> list[dict]:
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
-        for name, (scene, ladder) in variants(levels, check_reference).items():
-            slug = name.replace(", ", "-").replace(" ", "-")
-            repeats = 1 if name in (REFERENCE, CHECK) else REPEATS  # the longest runs, never compared in time
-            for index, overrides in enumerate(ladder):
-                folder = scratch / slug / f"level{index}"
-                rows.append({"variant": name, "level": index, "folder": folder,
-                             **fastest_run(scene, overrides, folder, scratch / "meshes" / slug, repeats)})
-        folder_of = {row["variant"]: row["folder"] for row in rows}  # a variant's last (finest) level
-        for key, reference in (("errorToReference", REFERENCE), ("errorToCheck", CHECK)):
-            for row in rows:
-                if reference in folder_of and row["variant"] != reference:
-                    row[key] = final_distance(row["folder"], folder_of[reference])
-        # the finest measured uniform level: h1 = 6/96 at the default five levels
-        finest = folder_of["uniform, pdas"]
-        fine = load_result(finest).params
+        models = error_models(scratch)
+        reference, check = references(levels, models, scratch)
+        rows = [reference, check]
+        for family in FAMILIES:
+            rows += family_rows(family, levels, fraction, models, reference["folder"], scratch)
+        check["errorToReference"] = final_distance(check["folder"], reference["folder"])
+        for row in rows:
+            if row["variant"] not in (REFERENCE, CHECK):
+                row["errorToCheck"] = final_distance(row["folder"], check["folder"])
+        finest = next(row["folder"] for row in reversed(rows) if row["variant"] == variant_name("euler", "uniform"))
         (scratch / "solvers").mkdir()
         for body in (1, 2):
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
-        solvers = solver_table(scratch / "solvers", fine["N"])
-    write(out, rows, solvers, levels, check_reference)
+        solvers = solver_table(scratch / "solvers", load_result(finest).params["N"])
+    rows = rows[2:] + rows[:2]
+    write(out, rows, solvers, models, levels, fraction)
     return rows
 
 
@@ -155,70 +207,83 @@ def wall_at(points: list[tuple[float, float]], error: float) -> float | None:
     return None
 
 
-def graded_gains(rows: list[dict], key: str = "errorToReference") -> list[tuple[float, float]]:
-    """(error, gain) at every measured error, uniform or graded, that both curves span: the
-    uniform wall time over the graded wall time at that error."""
-    uniform, graded = curve(rows, "uniform, pdas", key), curve(rows, "graded, pdas", key)
-    gains = []
-    for error in sorted({error for error, _ in uniform + graded}):
-        walls = wall_at(uniform, error), wall_at(graded, error)
-        if None not in walls:
-            gains.append((error, walls[0] / walls[1]))
-    return gains
+def at_targets(rows: list[dict], key: str = "errorToReference") -> dict[str, dict[float, float | None]]:
+    """Every variant's wall time at each of TARGETS (None where its curve does not reach it)."""
+    names = dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK))
+    return {name: {target: wall_at(curve(rows, name, key), target) for target in TARGETS} for name in names}
 
 
-def gain_lines(rows: list[dict], check_reference: bool) -> list[str]:
-    """The graded meshes' gain at every error both curves span, against each reference."""
-    keys = [("errorToReference", "against the reference")] + ([("errorToCheck", "against the reference check")]
-                                                              if check_reference else [])
-    lines = []
-    for key, against in keys:
-        gains = graded_gains(rows, key)
-        text = ", ".join(f"{gain:.2f}× at {100 * error:.2f} %" for error, gain in gains) or "the two curves share no error range"
-        lines.append(f"- {against}: {text}")
-    return lines
+COLUMNS = ["variant", "scheme", "family", "level", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
+           "startup", "meshing", "setup", "loop", "output", "overheadRatio", "setupMemoryMB", "peakMemoryMB",
+           "contactIters", "normV", "errorToReference", "errorToCheck"]
 
 
-COLUMNS = ["variant", "level", "nodes1", "nodes2", "N", "wall", "startup", "meshing", "setup", "loop", "output",
-           "overheadRatio", "contactIters", "normV", "errorToReference", "errorToCheck"]
-
-
-def write(out: Path, rows: list[dict], solvers: list[dict], levels: int, check_reference: bool) -> None:
+def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, levels: int, fraction: float) -> None:
     write_csv(out / "bench.csv", rows, COLUMNS)
     plot(out / "workprecision.png", rows)
-    command = f"python -m orchestrate bench --levels {levels}" + (" --check-reference" if check_reference else "")
-    (out / "README.md").write_text(bench_report(rows, solvers, command, check_reference, gain_lines(rows, check_reference)))
+    command = f"python -m orchestrate bench --levels {levels} --time-fraction {fraction:g}"
+    (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, at_targets(rows),
+                                                at_targets(rows, "errorToCheck")))
 
 
 def plot(target: Path, rows: list[dict]) -> None:
-    figure, axis = pyplot().subplots(figsize=(7, 5))
-    for name, marker in zip(("uniform, pdas", "uniform, bm", "graded, pdas"), "osd"):
-        points = curve(rows, name)
-        if points:
-            errors, walls = zip(*points)
-            axis.loglog(errors, walls, marker + "-", label=name)
-    axis.invert_xaxis()
-    log_axes(axis, "relative error ‖u_h(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V", "wall time of a run (s)")
+    """Wall time against error, one curve per variant; beside it, the time split of each
+    variant's finest level."""
+    figure, (left, right) = pyplot().subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [3, 2]})
+    names = list(dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK)))
+    colours = {scheme: f"C{i}" for i, scheme in enumerate(SCHEMES)}
+    for name in names:
+        scheme, family = name.split(", ")
+        errors, walls = zip(*curve(rows, name))
+        left.loglog(np.array(errors) * 100, walls, ("o-" if family == "uniform" else "s--"), color=colours[scheme],
+                    label=name)
+    left.invert_xaxis()
+    log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)")
+    parts = ("startup", "meshing", "setup", "loop", "output")
+    finest = [max((row for row in rows if row["variant"] == name), key=lambda row: row["level"]) for name in names]
+    bottom = np.zeros(len(finest))
+    for part in parts:
+        values = np.array([row[part] for row in finest]).clip(min=0)
+        right.barh(range(len(finest)), values, left=bottom, label=part)
+        bottom += values
+    right.set_yticks(range(len(finest)), [f"{row['variant']}\nlevel {row['level']}, N = {row['N']}" for row in finest],
+                     fontsize=8)
+    right.invert_yaxis()
+    right.set_xlabel("wall time of the finest level (s)")
+    right.legend(fontsize=8)
     save(figure, target)
 
 
 # --- command line ---------------------------------------------------------------------------
 
-NAME, HELP = "bench", "run time against error on this machine (results/bench)"
+NAME, HELP = "bench", "run time against error on this machine, every scheme on uniform and graded meshes (results/bench)"
+
+
+def unit_fraction(text: str) -> float:
+    import argparse
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value <= 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: a number in (0, 1]")
+    return value
 
 
 def add_arguments(parser) -> None:
     from orchestrate.cli import at_least_two
 
     parser.add_argument("--levels", type=at_least_two, default=5,
-                        help="measured uniform levels (one fewer graded: the next graded level is the reference)")
-    parser.add_argument("--check-reference", action="store_true",
-                        help="also run a uniform level finer than every other and measure every run against it too "
-                             "(about six minutes more)")
+                        help="measured mesh levels per family (default 5: h1 = 6/6 ... 6/96); the reference is the "
+                             "graded level two finer")
+    parser.add_argument("--time-fraction", type=unit_fraction, default=0.25,
+                        help="the time error each level's N aims at, as a fraction of the level's space error "
+                             "(default 0.25)")
     parser.add_argument("--out", default="results/bench")
 
 
 def command(options) -> int:
-    bench(options.out, levels=options.levels, check_reference=options.check_reference)
+    bench(options.out, levels=options.levels, fraction=options.time_fraction)
     print((Path(options.out) / "README.md").read_text())
     return 0

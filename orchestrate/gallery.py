@@ -7,7 +7,7 @@ from pathlib import Path
 from orchestrate.freefem import REPO
 from orchestrate.scene import SceneError
 
-SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch")
+SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad")
 
 NAME, HELP = "gallery", "run the gallery scenes into results/gallery"
 

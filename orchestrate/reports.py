@@ -6,6 +6,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from orchestrate.steps import ORDER
+
 
 def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
     """A table with the given columns (default: the first row's keys), other keys ignored; written
@@ -32,12 +34,11 @@ def reproduce(command: str) -> list[str]:
 
 QUANTITIES = ("errorV", "errorZeta", "errorBeta")
 LABELS = {"errorV": "‖u − u_ref‖_V", "errorZeta": "‖ζ − ζ_ref‖_L2", "errorBeta": "‖β − β_ref‖_L2(Γ_C)"}
-SCHEME_ORDER = {"euler": 1.0, "semi-implicit": 1.0, "bdf2": 2.0}  # MODEL.md §9: expected, measured here
 
 
 def expected_order(kind: str, scheme: str | None) -> float:
     """Theorem 2.1 of the seed: c(h^{3/4} + k) for the paper's scheme; the time schemes' own orders."""
-    return SCHEME_ORDER.get(scheme or "euler", 1.0) if kind == "time" else 0.75
+    return ORDER.get(scheme or "euler", 1) if kind == "time" else 0.75
 
 
 def convergence_report(table: list[dict], observed: dict[str, dict], command: str, studied) -> str:
@@ -228,43 +229,68 @@ def glue_section(glue: list[dict]) -> list[str]:
 
 # --- benchmark ------------------------------------------------------------------------------
 
-def bench_report(rows: list[dict], solvers: list[dict], command: str, check_reference: bool,
-                 gains: list[str]) -> str:
-    """The benchmark's README: the time split and errors of every run, the graded meshes' gain at
-    equal error (`gains`, already written out), and the sparse solvers on the finest level."""
+def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: str, fraction: float,
+                 at_reference: dict, at_check: dict) -> str:
+    """The benchmark's README: how each level's N was chosen, the time split, memory and errors of
+    every run, the references, every variant's time at the target errors, and the sparse solvers
+    on the finest uniform level."""
+    measured = [row for row in rows if row["variant"] not in ("reference", "reference check")]
+    reference = next(row for row in rows if row["variant"] == "reference")
+    check = next(row for row in rows if row["variant"] == "reference check")
+    smallest = min(row["errorToReference"] for row in measured)
+    resolved = 4 * check["errorToReference"] <= smallest
     lines = ["# Benchmark: run time against error, the paper's scene", "", *reproduce(command),
-             "Times in seconds: *wall* = meshing (empty cache) + FreeFem++ (start-up, set-up, time loop, output); "
+             "Every time scheme on uniform and on graded meshes (scenes/paper_graded.toml), the active-set contact "
+             "solver. **Steps:** each level's N is chosen so that the scheme's estimated time error is "
+             f"{fraction:g} × the level's space error: the time error model of each scheme comes from the pilots of "
+             "`time.N = \"auto\"` on uniform level 0 (below), the space error of a level is bdf2's measured error "
+             "there (bdf2 aiming at a quarter of that fraction of the previous level's, whose time error is then "
+             "negligible). *time target* and *est. time error* are that aim and the model's estimate at the N "
+             "run (N doubled where an explicit bound refused it).", "",
+             "Times in seconds: *wall* = meshing (warm cache) + FreeFem++ (start-up, set-up, time loop, output); "
              "set-up, loop and output are FreeFEM's own CPU clock, and start-up is FreeFem++'s wall time less that "
              "clock (negative when multithreaded BLAS puts more CPU than wall time into the factorizations). "
              "*overhead* = time per step / the back-substitutions a step cannot avoid (one per body for u, one per "
-             "body for ζ), timed in the same process. *error* = "
-             "‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V against one reference for every variant (the row *reference*: the "
-             "graded mesh one level finer than the finest measured graded level, with twice its steps); each run is "
-             "interpolated onto the reference's meshes. Timings on this virtual machine drift by ±20 % between runs "
-             "minutes apart: each measured level is the fastest of 3 runs; the reference runs once."
-             + (" *error vs check*: the same against the row *reference check* (see below), on its meshes."
-                if check_reference else ""), ""]
-    header = ["variant", "level", "nodes (body 1, 2)", "N", "wall", "start-up", "meshing", "set-up", "loop", "output",
-              "overhead", "contact it/step", "error"] + (["error vs check"] if check_reference else [])
+             "body for ζ), timed in the same process. *memory*: FreeFem++'s peak resident memory after set-up and "
+             "at the end of the run (MB). *error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto "
+             "the reference's meshes; *error vs check* the same against the check. Runs under 20 s are the fastest "
+             "of 3 (this machine's timings drift by ±20 %).", "",
+             f"**Reference:** graded level {reference['nodes1']} + {reference['nodes2']} nodes, bdf2, N = "
+             f"{reference['N']} (time error ≈ 1e-6). **Check:** an independent mesh of the same size — the graded "
+             f"level between the finest measured and the reference's, split once ({check['nodes1']} + {check['nodes2']} nodes), same scheme and N. They lie "
+             f"{100 * check['errorToReference']:.3f} % apart; the smallest error reported is {100 * smallest:.3f} %, "
+             + ("so the reference is at least four times more accurate than every error in the table."
+                if resolved else
+                f"so the reference is NOT four times more accurate than the smallest errors: errors below "
+                f"{400 * check['errorToReference']:.2f} % are not resolved by it (see *error vs check*)."), ""]
+    header = ["variant", "level", "nodes (body 1, 2)", "N", "time target", "est. time error", "wall", "start-up",
+              "meshing", "set-up", "loop", "output", "overhead", "memory set-up / peak", "contact it/step", "error",
+              "error vs check"]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
         cells = [row["variant"], row["level"], f"{row['nodes1']}, {row['nodes2']}", row["N"]]
+        cells += [number(row[key]) if key in row else "" for key in ("timeTarget", "estimatedTimeError")]
         cells += [f"{row[key]:.3f}" for key in ("wall", "startup", "meshing", "setup", "loop", "output")]
-        cells += [f"{row['overheadRatio']:.2f}", f"{row['contactIters']:.2f}"]
-        cells.append(f"{100 * row['errorToReference']:.2f} %" if "errorToReference" in row else "reference")
-        if check_reference:
-            cells.append(f"{100 * row['errorToCheck']:.2f} %" if "errorToCheck" in row else "reference")
+        cells += [f"{row['overheadRatio']:.2f}", f"{row['setupMemoryMB']:.0f} / {row['peakMemoryMB']:.0f}",
+                  f"{row['contactIters']:.2f}"]
+        for key, own in (("errorToReference", "reference"), ("errorToCheck", "reference check")):
+            cells.append(f"{100 * row[key]:.3f} %" if key in row else "–" if row["variant"] == own else "")
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
-    check = next((row for row in rows if row["variant"] == "reference check"), None)
-    if check:
-        reference = next(r for r in rows if r["variant"] == "reference")
-        lines += ["", f"Reference check: a uniform run finer than every measured level ({check['nodes1']} + "
-                  f"{check['nodes2']} nodes, N = {check['N']}) lies {100 * check['errorToReference']:.2f} % from the "
-                  f"reference (the reference {100 * reference['errorToCheck']:.2f} % from it, measured on its meshes). "
-                  "Both have errors of their own, so errors in the table much below this figure are not resolved; "
-                  "where the two error columns differ, the truth lies between."]
-    lines += ["", "Graded meshes against uniform ones at equal error (the uniform wall time over the graded wall time, "
-              "both work–precision curves interpolated in log–log):", "", *gains]
+    lines += ["", "Time error models (the pilots of orchestrate/steps.py on uniform level 0, n = 6 and 8 "
+              "elements per side):", "", "| scheme | N_a | observed order | order used | error at 4N_a |",
+              "|---|---|---|---|---|"]
+    for scheme, model in models.items():
+        lines.append(f"| {scheme} | {model['firstPilot']} | {model['pilots'][-1]['observedOrder']:.2f} | "
+                     f"{model['orderUsed']:.2f} | {number(model['finestPilotError'])} |")
+    lines += ["", "Wall time to reach an error (each curve interpolated in log–log; against the check in brackets; "
+              "– where a curve does not reach it):", "",
+              "| variant | " + " | ".join(f"{100 * t:g} %" for t in next(iter(at_reference.values()))) + " |",
+              "|---|" + "---|" * len(next(iter(at_reference.values())))]
+    for name, walls in at_reference.items():
+        cells = [f"{walls[t]:.2f} s" if walls[t] else "–" for t in walls]
+        cells = [f"{cell} ({at_check[name][t]:.2f} s)" if at_check[name][t] else f"{cell} (–)"
+                 for cell, t in zip(cells, walls)]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
               "the factorization):", "",
               "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]

@@ -358,6 +358,8 @@ def apply_overrides(data: dict, overrides: dict) -> dict:
                 raise SceneError(f"--set {key}: '{'.'.join(parts[:depth])}' holds a value, not a table")
             if last:
                 node[part] = value
+                if key == "time.N" and value != "auto" and "time.targetError" not in overrides:
+                    node.pop("targetError", None)  # a given N replaces "auto" and its target
             else:
                 if isinstance(node, dict) and part not in node:
                     node[part] = {}

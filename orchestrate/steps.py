@@ -20,6 +20,7 @@ from pathlib import Path
 
 ORDER = {"euler": 1, "semi-implicit": 1, "bdf2": 2}
 FIRST_PILOT, MOST_DOUBLINGS = 10, 10
+STEP_FAILURES = (3, 4, 5)  # exits a smaller step can cure: a bound refused, a loop or an invariant broke
 ASYMPTOTIC = (0.8, 1.3)  # observed order / the scheme's, for pilots in their asymptotic range
 
 
@@ -42,15 +43,19 @@ def pilot_overrides(scene, steps: int) -> dict:
     return overrides
 
 
-def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | None:
-    """A pilot run at N = steps into `folder`; None when the solver refuses or fails it."""
+def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | str:
+    """A pilot run at N = steps into `folder`, or why it did not run when a step bound refused N
+    or the run broke down at it (a smaller step may not); any other failure is the scene's and
+    ends the search."""
     from orchestrate.runner import SolverError, run
 
     manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
     try:
         run(manual, folder, pilot_overrides(scene, steps), force=True, mesh_cache=mesh_cache)
-    except SolverError:
-        return None
+    except SolverError as error:
+        if error.returncode not in STEP_FAILURES:
+            raise StepsError(f"time.N = 'auto': the pilot run at N = {steps} failed: {error}") from None
+        return error.message
     return folder
 
 
@@ -61,16 +66,18 @@ def relative_distance(first: Path, second: Path, first_steps: int, second_steps:
     return row["errorV"] / row["normV"] if row["normV"] > 0 else 0.0
 
 
-def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
-    """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
-    target, order = scene.time.targetError, ORDER[scene.time.scheme]
+def time_error_model(scene, work: Path, mesh_cache: Path | None = None) -> dict:
+    """The pilots of a scene (time.scheme, time.T and the meshes one level coarser than its own):
+    the N_a they settled on, the order used and the finest pilot's error (steps 1 and 2 of the
+    rule). Pilot folders are made under `work` and removed."""
+    order = ORDER[scene.time.scheme]
     work.mkdir(parents=True, exist_ok=True)
-    folders: dict[int, Path | None] = {}
+    folders: dict[int, Path | str] = {}
 
-    def ran(steps: int) -> Path | None:
+    def ran(steps: int) -> bool:
         if steps not in folders:
             folders[steps] = pilot(scene, steps, work / f"N{steps}", mesh_cache)
-        return folders[steps]
+        return isinstance(folders[steps], Path)
 
     pilots = []
     try:
@@ -85,18 +92,30 @@ def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
                     break
             steps *= 2
         else:
+            failed = {steps: why for steps, why in folders.items() if isinstance(why, str)}
+            last = f"; at N = {max(failed)}: {failed[max(failed)]}" if failed else ""
             raise StepsError(f"time.N = 'auto': no pilots from N = {FIRST_PILOT} to {FIRST_PILOT * 2 ** MOST_DOUBLINGS} "
-                             f"both ran and showed the {scene.time.scheme} scheme's order {order} (tried: "
-                             f"{json.dumps(pilots) if pilots else 'none ran'}); give time.N yourself")
+                             f"both ran and showed the {scene.time.scheme} scheme's order {order} (measured: "
+                             f"{json.dumps(pilots) if pilots else 'none'}{last}); give time.N yourself")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     last = pilots[-1]
     p = max(0.5, min(last["observedOrder"], order))
-    finest = 4 * last["N"]
-    error = last["distance2"] / (2 ** p - 1)
-    chosen = max(last["N"], math.ceil(finest * (error / target) ** (1 / p))) if error > 0 else last["N"]
-    return {"rule": "time.N = 'auto' (orchestrate/steps.py)", "scheme": scene.time.scheme, "schemeOrder": order,
-            "targetError": target, "pilotMeshes": {name: coarser(body.mesh) for name, body in
-                                                   (("body1", scene.body1), ("body2", scene.body2))},
-            "pilots": pilots, "orderUsed": p, "finestPilotError": error, "N": chosen,
-            "estimatedError": error * (finest / chosen) ** p}
+    return {"scheme": scene.time.scheme, "schemeOrder": order,
+            "pilotMeshes": {name: coarser(body.mesh) for name, body in (("body1", scene.body1), ("body2", scene.body2))},
+            "pilots": pilots, "orderUsed": p, "firstPilot": last["N"], "finestPilotError": last["distance2"] / (2 ** p - 1)}
+
+
+def steps_for(model: dict, target: float) -> tuple[int, float]:
+    """Step 3 of the rule: the N for a target time error, and the error estimated at that N."""
+    finest, error, p = 4 * model["firstPilot"], model["finestPilotError"], model["orderUsed"]
+    chosen = max(model["firstPilot"], math.ceil(finest * (error / target) ** (1 / p))) if error > 0 else model["firstPilot"]
+    return chosen, error * (finest / chosen) ** p
+
+
+def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
+    """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
+    model = time_error_model(scene, work, mesh_cache)
+    chosen, estimated = steps_for(model, scene.time.targetError)
+    return {"rule": "time.N = 'auto' (orchestrate/steps.py)", "targetError": scene.time.targetError, **model,
+            "N": chosen, "estimatedError": estimated}

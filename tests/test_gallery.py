@@ -124,3 +124,27 @@ def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
         for image in ("fields.png", "contact_line.png", "history.png"):
             assert (tmp_path / name / image).stat().st_size > 10_000
     assert (tmp_path / "peel" / "beta_xt.png").exists()
+
+
+def test_the_polymer_pad_runs_stiff_materials_in_few_steps_to_its_target(tmp_path):
+    """E/η = 2000 and 7000 s⁻¹ over 4 s: the paper's scheme would need N ≥ T ρ/2 (its elastic
+    bound, about 10⁴ steps); bdf2 with time.N = "auto" takes a few hundred and reaches the target
+    against bdf2 with eight times its steps on the same meshes. The glue only lets go (γ_r = 0),
+    the lifted pad never touches the block, the block (λ = 0) never damages."""
+    from orchestrate.manifest import facts
+    from orchestrate.steps import relative_distance
+
+    sizes = {"body1.mesh.n": 50, "body2.mesh.n": 40, "output.times": "final", "output.fields": ["state"]}
+    result = coarse("polymer_pad", tmp_path, **sizes, **{"time.targetError": 1e-3})
+    h, steps = result.history, len(result.history["t"])
+    rho = facts(result.folder)["rho"]
+    assert steps < 0.05 * result.params["T"] * rho / 2
+    reference = run(SCENES / "polymer_pad.toml", tmp_path / "reference",
+                    {**sizes, "output.images": False, "time.N": 8 * steps})
+    assert relative_distance(result.folder, reference.folder, steps, 8 * steps) <= 1.2e-3
+    assert np.all(np.diff(h["betaMax"]) <= 1e-15) and h["betaMin"][-1] < 0.3
+    assert np.all(h["contactLength"] == 0) and np.all(h["zetaMin2"] == 1)
+    assert h["zetaMin1"].min() < 0.8
+    with pytest.raises(Exception, match="exceeds the explicit elastic bound"):
+        run(SCENES / "polymer_pad.toml", tmp_path / "euler", {**sizes, "output.images": False, "time.N": steps,
+                                                                "time.scheme": "euler"})

@@ -54,3 +54,17 @@ def test_bad_step_requests_are_refused_by_name(overrides, words):
     with pytest.raises(SceneError) as caught:
         Scene.load(PAPER, overrides)
     assert words in str(caught.value)
+
+
+def test_a_given_N_replaces_auto_and_its_target():
+    scene = Scene.load(REPO / "scenes" / "polymer_pad.toml", {"time.N": 50})
+    assert scene.time.N == 50 and scene.time.targetError is None
+
+
+def test_pilots_that_never_run_say_why(tmp_path):
+    """euler with E = 1e7: its elastic bound refuses every pilot up to N = 10240."""
+    with pytest.raises(SceneError) as caught:
+        run(PAPER, tmp_path / "run", {**QUIET, "time.N": "auto", "time.targetError": 1e-2, "body1.material.E": 1e7})
+    message = str(caught.value)
+    assert "no pilots from N = 10 to 10240" in message and "exceeds the explicit elastic bound" in message
+    assert "give time.N yourself" in message
