@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import subprocess
@@ -68,6 +69,7 @@ class MeshInfo:
     nodes: int
     triangles: int
     segments: dict[int, int]
+    smallest_area: float = math.inf
 
 
 def read_msh(path: Path) -> MeshInfo:
@@ -102,17 +104,56 @@ def read_msh(path: Path) -> MeshInfo:
         raise fault("a node line that is not numbers") from None
     if coordinates.size != 4 * nodes or not np.isfinite(coordinates).all():
         raise fault("a node line without 3 finite coordinates")
-    triangles, segments = 0, {}
+    segments, corners = {}, []
     for line in element_lines:
         fields = line.split()
         if len(fields) < 4:
             raise fault("an element line cut short")
         if fields[1] == b"2":
-            triangles += 1
+            corners.append(fields[-3:])
         elif fields[1] == b"1":
             tag = int(fields[3])
             segments[tag] = segments.get(tag, 0) + 1
-    return MeshInfo(nodes, triangles, segments)
+    table = coordinates.reshape(nodes, 4)
+    order = np.argsort(table[:, 0])
+    try:
+        where = order[np.searchsorted(table[order, 0], np.array(corners, dtype=float).reshape(-1, 3))]
+    except (ValueError, IndexError):
+        raise fault("a triangle whose nodes are not numbers of the $Nodes section") from None
+    a, b, c = (table[where[:, j], 1:3] for j in range(3))
+    areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    return MeshInfo(nodes, len(corners), segments, float(areas.min()) if len(corners) else math.inf)
+
+
+# FreeFEM's gmshload stops ("bug : mes < 1e-8 !", exit 1) at a triangle of smaller area in an ASCII
+# file, whatever the length unit (docs/freefem-facts.md); its readmesh of FreeFEM's own format has
+# no such limit, and the driver reads either (edp/lib/meshes.idp, loadMesh).
+GMSHLOAD_SMALLEST_AREA = 1e-8
+
+
+def write_freefem(source: Path, target: Path) -> None:
+    """The gmsh 2.2 ASCII mesh `source` in FreeFEM's own format (nv nt nbe; x y label per vertex;
+    the triangles, then the boundary edges, by 1-based vertex numbers, with their physical tags),
+    the mesh gmshload would make: its vertices in their order with label 1 and the doubles an
+    ASCII reader parses (written back exactly by repr), the triangles and edges in their order."""
+    lines = source.read_bytes().split(b"\n")
+    position = {line.strip(): index for index, line in enumerate(lines) if line.startswith(b"$")}
+    table = np.array(b" ".join(lines[position[b"$Nodes"] + 2: position[b"$EndNodes"]]).split(), dtype=float)
+    table = table.reshape(-1, 4)
+    number = {int(tag): index + 1 for index, tag in enumerate(table[:, 0])}
+    triangles, edges = [], []
+    for line in lines[position[b"$Elements"] + 2: position[b"$EndElements"]]:
+        fields = [int(field) for field in line.split()]
+        label, corners = fields[3], " ".join(str(number[v]) for v in fields[3 + fields[2]:])
+        if fields[1] == 2:
+            triangles.append(f"{corners} {label}")
+        elif fields[1] == 1:
+            edges.append(f"{corners} {label}")
+    text = [f"{len(table)} {len(triangles)} {len(edges)}", *(f"{x!r} {y!r} 1" for x, y in table[:, 1:3].tolist()),
+            *triangles, *edges]
+    partial = target.with_name(target.name + ".partial")
+    partial.write_text("\n".join(text) + "\n")
+    partial.replace(target)
 
 
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:

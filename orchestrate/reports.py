@@ -197,34 +197,36 @@ def implicit_section(implicit: list[dict]) -> list[str]:
     return lines + [""]
 
 
-def source_section(source: list[dict]) -> list[str]:
-    if not source:
+def measured_bound_section(title: str, description: str, parameter: str, predicted: str, rows: list[dict],
+                           digits: str) -> list[str]:
+    """A table of predicted against observed step bounds, one row per scheme and parameter value."""
+    if not rows:
         return []
-    lines = ["## Damage source", "",
-             "The paper's scene without loads (u = 0) and with λ_u = 0, λ_D = 1, λ_w = −9: a uniform ζ obeys "
-             "ζ' = λ_D (1 − ζ)/ζ + λ_w, with its equilibrium ζ_eq = 0.1; started at 0.101. Linearized, the explicit "
-             "source needs k λ_D/ζ_eq² ≤ 2 (euler, semi-implicit) or ≤ 4/3 (bdf2, extrapolated). Predicted: "
-             "the step at which the driver's level ζc (run.json) reaches ζ_eq.", "",
-             "| scheme | ζ_eq | predicted k | observed (bracket) | difference | smallest stable N | T |",
+    lines = [f"## {title}", "", description, "",
+             f"| scheme | {parameter} | {predicted} | observed (bracket) | difference | smallest stable N | T |",
              "|---|---|---|---|---|---|---|"]
-    lines += [f"| {row['scheme']} | {row['parameter']:.3g} | {bracket(row)} |" for row in source]
-    worst = max(abs(row["difference"]) for row in source)
+    lines += [f"| {row['scheme']} | {row['parameter']:{digits}} | {bracket(row)} |" for row in rows]
+    worst = max(abs(row["difference"]) for row in rows)
     return lines + ["", f"Largest difference: {100 * worst:.2f} %.", ""]
+
+
+def source_section(source: list[dict]) -> list[str]:
+    return measured_bound_section(
+        "Damage source",
+        "The paper's scene without loads (u = 0) and with λ_u = 0, λ_D = 1, λ_w = −9: a uniform ζ obeys "
+        "ζ' = λ_D (1 − ζ)/ζ + λ_w, with its equilibrium ζ_eq = 0.1; started at 0.101. Linearized, the explicit "
+        "source needs k λ_D/ζ_eq² ≤ 2 (euler, semi-implicit) or ≤ 4/3 (bdf2, extrapolated). Predicted: "
+        "the step at which the driver's level ζc (run.json) reaches ζ_eq.", "ζ_eq", "predicted k", source, ".3g")
 
 
 def glue_section(glue: list[dict]) -> list[str]:
-    if not glue:
-        return []
-    lines = ["## Tangential glue term", "",
-             "scenes/shear.toml (n = 8/11) with γ_ν = 0 (the glue never debonds), E = 10 in both bodies (the "
-             "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
-             "limit/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration with the scheme's own K (docs/model-choices.md, "
-             "\"Explicit glue\"); limit 2 (euler, semi-implicit) or 8/9 (bdf2).", "",
-             "| scheme | p_τ | predicted limit/ρ_τ | observed (bracket) | difference | smallest stable N | T |",
-             "|---|---|---|---|---|---|---|"]
-    lines += [f"| {row['scheme']} | {row['parameter']:.4g} | {bracket(row)} |" for row in glue]
-    worst = max(abs(row["difference"]) for row in glue)
-    return lines + ["", f"Largest difference: {100 * worst:.2f} %.", ""]
+    return measured_bound_section(
+        "Tangential glue term",
+        "scenes/shear.toml (n = 8/11) with γ_ν = 0 (the glue never debonds), E = 10 in both bodies (the "
+        "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
+        "limit/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration with the scheme's own K (docs/model-choices.md, "
+        "\"Explicit glue\"); limit 2 (euler, semi-implicit) or 8/9 (bdf2).", "p_τ", "predicted limit/ρ_τ", glue,
+        ".4g")
 
 
 # --- benchmark ------------------------------------------------------------------------------

@@ -379,6 +379,8 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
         shutil.copyfile(path, target)
         info = meshing.read_msh(target)
         require_labels(body, index, info)
+        if info.smallest_area < meshing.GMSHLOAD_SMALLEST_AREA:
+            meshing.write_freefem(path, target)
         infos.append(info)
     constraints = infos[0].segments.get(scene.body1.mesh.contactLabel, 0) + 1
     pdas = scene.solver.contactSolver == "pdas"

@@ -86,3 +86,60 @@ def test_the_cache_key_follows_included_files(tmp_path):
     before = cache_key(source, {"n": 8})
     (tmp_path / "graded_size.geo").write_text((REPO / "meshes/graded_size.geo").read_text() + "// edited\n")
     assert cache_key(source, {"n": 8}) != before
+
+
+def test_a_mesh_in_freefems_format_is_the_same_mesh_to_the_bit(tmp_path):
+    """What the runner hands over when a triangle is below gmshload's area limit: the paper's run
+    on the meshes in FreeFEM's format is its run on the gmsh files, every byte of its results."""
+    from orchestrate.freefem import MAIN, run_script
+    from orchestrate.mesh import write_freefem
+
+    meshes = {}
+    for body, n in ((1, 24), (2, 32)):
+        meshes[body] = tmp_path / f"body{body}.msh"
+        write_freefem(REPO / "meshes" / f"paper_body{body}-n{n}.msh", meshes[body])
+    runs = {}
+    for kind, flags in (("gmsh", []), ("freefem", ["-mesh1", meshes[1], "-mesh2", meshes[2]])):
+        runs[kind] = tmp_path / kind
+        done = run_script(MAIN, [*flags, "-N", 20, "-outFields", "bodies,state", "-out", runs[kind]])
+        assert done.returncode == 0, done.error_line
+    for name in ("body1_0020.vtu", "body2_0020.vtu", "state_0020.txt"):
+        assert (runs["gmsh"] / name).read_bytes() == (runs["freefem"] / name).read_bytes()
+    history = [[line.rsplit(",", 1)[0] for line in (runs[kind] / "history.csv").read_text().splitlines()]
+               for kind in runs]
+    assert history[0] == history[1]
+
+
+def test_a_scene_in_si_units_with_millimetre_elements_runs_as_in_millimetres(tmp_path):
+    """gmshload refuses triangles below 1e-8 in area (1e-4 m sides): the polymer pad in metres and
+    pascals has 5e-9 m² triangles. Pressed onto its block, it runs, and gives the pad in
+    millimetres and megapascals scaled: u by 1e-3, so ‖u‖_V (unit-free strains over an area scaled
+    by 1e-6) by 1e-3, the contact force per unit thickness (MPa·mm = kN/m) by 1e3. Neither damage
+    nor glue here: MODEL.md's R truncates ε·ε by the glue's length L, and γ_ν is both a stiffness
+    and a debonding rate, so neither is unit-free."""
+    from orchestrate import run
+
+    pad = REPO / "scenes" / "polymer_pad.toml"
+    common = {"time.N": 20, "output.images": False, "body1.damage.lambdaU": 0.0, "body1.damage.lambdaD": 0.0,
+              "glue.gammaNu": 0.0, "glue.pTau": 0.0,  # structured: gmsh's unstructured meshes are not scale-free
+              "body1.mesh.structured": True, "body2.mesh.structured": True}
+    millimetres = run(pad, tmp_path / "mm", {**common, "body1.boundary.0.value": "0",
+                                             "body1.boundary.1.value": "-0.01*t"})
+    si = {**common, "body1.mesh.rectangle": [0.0, 0.01, 0.0, 0.002], "body2.mesh.rectangle": [0.0, 0.01, -0.004, 0.0],
+          "body1.boundary.0.value": "0", "body1.boundary.1.value": "-1e-5*t"}
+    for body in ("body1", "body2"):
+        for key in ("E", "mu", "eta"):
+            si[f"{body}.material.{key}"] = scene_number(pad, f"{body}.material.{key}") * 1e6
+    metres = run(pad, tmp_path / "m", si)
+    assert (metres.folder / "body1.msh").read_bytes()[:1] != b"$"  # handed over in FreeFEM's format
+    assert millimetres.history["contactLength"][-1] > 9  # pressed: Γ_C closed nearly everywhere
+    np.testing.assert_allclose(metres.history["normV"], 1e-3 * millimetres.history["normV"], rtol=1e-7)
+    np.testing.assert_allclose(metres.history["contactForce"], 1e3 * millimetres.history["contactForce"], rtol=1e-7)
+    np.testing.assert_allclose(metres.history["contactLength"], 1e-3 * millimetres.history["contactLength"], rtol=1e-9)
+
+
+def scene_number(path, dotted: str) -> float:
+    from orchestrate.parameters import scene_value
+    from orchestrate.scene import Scene
+
+    return scene_value(Scene.load(path).model_dump(mode="json"), dotted)
