@@ -32,7 +32,7 @@ def test_measurements_are_consistent(quick):
     for row in rows:
         assert row["overheadRatio"] > 1  # a step does at least the back-substitutions it cannot avoid
         assert row["wall"] > row["loop"] > 0 and row["startup"] > 0
-        assert 0 < row["setupMemoryMB"] <= row["peakMemoryMB"]
+        assert 0 < row["setupMemoryMB"] <= row["peakMemoryMB"] and row["columns"] >= 0
     for family in ("uniform", "graded"):
         for scheme in SCHEMES:
             errors = [row["errorToReference"] for row in rows if row["variant"] == f"{scheme}, {family}"]
