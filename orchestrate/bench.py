@@ -172,7 +172,10 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
     return rows
 
 
-def bench(out: str | Path, levels: int = 5, fraction: float = 0.25) -> list[dict]:
+def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None) -> list[dict]:
+    """`levels` graded levels (the reference two finer) and `uniform_levels` uniform ones (default
+    as many: uniform meshes need one more level for the same error)."""
+    counts = {"uniform": uniform_levels or levels, "graded": levels}
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as scratch:
@@ -181,7 +184,7 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25) -> list[dict
         reference, check = references(levels, models, scratch)
         rows = [reference, check]
         for family in FAMILIES:
-            rows += family_rows(family, levels, fraction, models, reference["folder"], scratch)
+            rows += family_rows(family, counts[family], fraction, models, reference["folder"], scratch)
         check["errorToReference"] = final_distance(check["folder"], reference["folder"])
         for row in rows:
             if row["variant"] not in (REFERENCE, CHECK):
@@ -192,7 +195,8 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25) -> list[dict
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
         solvers = solver_table(scratch / "solvers", load_result(finest).params["N"])
     rows = rows[2:] + rows[:2]
-    write(out, rows, solvers, models, levels, fraction)
+    write(out, rows, solvers, models, f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g}",
+          fraction)
     return rows
 
 
@@ -222,10 +226,10 @@ COLUMNS = ["variant", "scheme", "family", "level", "nodes1", "nodes2", "N", "tim
            "contactIters", "normV", "errorToReference", "errorToCheck"]
 
 
-def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, levels: int, fraction: float) -> None:
+def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags: str, fraction: float) -> None:
     write_csv(out / "bench.csv", rows, COLUMNS)
     plot(out / "workprecision.png", rows)
-    command = f"python -m orchestrate bench --levels {levels} --time-fraction {fraction:g}"
+    command = f"python -m orchestrate bench {flags}"
     (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, at_targets(rows),
                                                 at_targets(rows, "errorToCheck")))
 
@@ -279,8 +283,10 @@ def add_arguments(parser) -> None:
     from orchestrate.cli import at_least_two
 
     parser.add_argument("--levels", type=at_least_two, default=5,
-                        help="measured mesh levels per family (default 5: h1 = 6/6 ... 6/96); the reference is the "
-                             "graded level two finer")
+                        help="measured graded levels (default 5: h1 = 6/6 ... 6/96); the reference is the graded "
+                             "level two finer")
+    parser.add_argument("--uniform-levels", type=at_least_two, default=None,
+                        help="measured uniform levels (default: as many as --levels)")
     parser.add_argument("--time-fraction", type=unit_fraction, default=0.25,
                         help="the time error each level's N aims at, as a fraction of the level's space error "
                              "(default 0.25)")
@@ -288,6 +294,6 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    bench(options.out, levels=options.levels, fraction=options.time_fraction)
+    bench(options.out, levels=options.levels, fraction=options.time_fraction, uniform_levels=options.uniform_levels)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -22,7 +22,7 @@ def test_bench_writes_its_table_report_and_plot(quick):
     variants = [f"{scheme}, {family}" for family in ("uniform", "graded") for scheme in SCHEMES]
     assert sorted(row["variant"] for row in rows) == sorted([*variants * 2, REFERENCE, CHECK])
     report = (out / "README.md").read_text()
-    assert "python -m orchestrate bench --levels 2 --time-fraction 0.25" in report
+    assert "python -m orchestrate bench --levels 2 --uniform-levels 2 --time-fraction 0.25" in report
     assert "CHOLMOD" in report and "MUMPS_seq" in report and "Time error models" in report
     assert (out / "workprecision.png").stat().st_size > 20000
 
