@@ -23,8 +23,26 @@ def pyvista():
     return pv
 
 
-# VTK's bundled font has no Greek letters, so the image titles spell them out.
-FIELD_TITLES = {"vonMises": "von Mises stress (N/m^2)", "zeta": "damage zeta (1 = sound)"}
+# The labels of a scene's consistent units (output.units): length, stress, force per unit thickness.
+UNITS = {"SI": {"length": "m", "stress": "N/m²", "force": "N/m"},
+         "mm-N-s": {"length": "mm", "stress": "MPa", "force": "N/mm"}}
+
+
+def units_of(result: Result) -> dict[str, str]:
+    """The unit labels of a run: its scene's output.units (SI for a run of the driver by hand)."""
+    import tomllib
+
+    try:
+        scene = tomllib.loads((result.folder / "scene.toml").read_text())
+    except (OSError, tomllib.TOMLDecodeError):
+        return UNITS["SI"]
+    return UNITS.get(scene.get("output", {}).get("units", "SI"), UNITS["SI"])
+
+
+def field_titles(units: dict[str, str]) -> dict[str, str]:
+    # VTK's bundled font has no Greek letters and no ², so the image titles spell them out.
+    stress = units["stress"].replace("²", "^2")
+    return {"vonMises": f"von Mises stress ({stress})", "zeta": "damage zeta (1 = sound)"}
 
 
 def nice_magnification(max_displacement: float, size: float) -> float:
@@ -64,25 +82,25 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
     """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies.
     Returns the colour range each colour bar shows, read back from the rendered scene."""
     bodies, factor = deformed_bodies(result)
-    time = result.outputs[-1][0]
+    time, titles = result.outputs[-1][0], field_titles(units_of(result))
     plotter = pyvista().Plotter(shape=(1, 2), window_size=window, off_screen=True)
     plotter.set_background("white")
     for column, field in enumerate(("vonMises", "zeta")):
         plotter.subplot(0, column)
         limits = colour_range(np.concatenate([body[field] for body in bodies]))
-        bar = dict(title=FIELD_TITLES[field], color="black", vertical=False, n_labels=5, fmt="%.4g",
+        bar = dict(title=titles[field], color="black", vertical=False, n_labels=5, fmt="%.4g",
                    position_x=0.12, position_y=0.03, width=0.76, height=0.06, title_font_size=16,
                    label_font_size=14)
         for index, body in enumerate(bodies):
             plotter.add_mesh(body, scalars=field, cmap="viridis" if field == "vonMises" else "magma",
                              clim=limits, show_edges=False, scalar_bar_args=bar, show_scalar_bar=index == 0,
                              lighting=False)  # flat colours, as the colour bar shows them
-        plotter.add_text(f"{FIELD_TITLES[field].split(' (')[0]} at t = {time:g}, "
+        plotter.add_text(f"{titles[field].split(' (')[0]} at t = {time:g}, "
                          f"displacements magnified x{factor:g}", position="upper_edge", font_size=10, color="black")
         plotter.view_xy()
         plotter.camera.zoom(1.3)
     plotter.screenshot(str(target))
-    shown = {field: tuple(plotter.scalar_bars[FIELD_TITLES[field]].GetLookupTable().GetRange())
+    shown = {field: tuple(plotter.scalar_bars[titles[field]].GetLookupTable().GetRange())
              for field in ("vonMises", "zeta")}
     plotter.close()
     return shown
@@ -99,10 +117,11 @@ def plot_contact_line(result: Result, target: Path) -> Path:
     axes[0].set_ylabel("bonding β")
     axes[1].plot(s, line.point_data["gap"], "o-", ms=3)
     axes[1].axhline(0, color="grey", lw=0.8)
-    axes[1].set_ylabel("gap g_h (m)\n(< 0: open)")
+    units = units_of(result)
+    axes[1].set_ylabel(f"gap g_h ({units['length']})\n(< 0: open)")
     axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
-    axes[2].set_ylabel("contact pressure (N/m²)")
-    axes[2].set_xlabel("position along Γ_C (m)")
+    axes[2].set_ylabel(f"contact pressure ({units['stress']})")
+    axes[2].set_xlabel(f"position along Γ_C ({units['length']})")
     figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
     save(figure, target, dpi=120)
     return target
@@ -110,11 +129,11 @@ def plot_contact_line(result: Result, target: Path) -> Path:
 
 def plot_history(result: Result, target: Path) -> Path:
     """The history.csv series over time."""
-    h = result.history
-    panels = [("‖u‖_V", ["normV"]), ("max von Mises (N/m²)", ["vmMax1", "vmMax2"]),
+    h, units = result.history, units_of(result)
+    panels = [("‖u‖_V", ["normV"]), (f"max von Mises ({units['stress']})", ["vmMax1", "vmMax2"]),
               ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
-              ("forces on body 1 across Γ_C (N/m)", ["contactForce", "forceX1", "forceY1"]),
-              ("closed length (m)", ["contactLength"])]
+              (f"forces on body 1 across Γ_C ({units['force']})", ["contactForce", "forceX1", "forceY1"]),
+              (f"closed length ({units['length']})", ["contactLength"])]
     figure, axes = pyplot().subplots(3, 2, figsize=(10, 8), sharex=True)
     for axis, (title, columns) in zip(axes.flat, panels):
         for column in columns:
@@ -145,7 +164,7 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     figure, axis = pyplot().subplots(figsize=(7, 4.2))
     image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=0, vmax=1, shading="flat")
     figure.colorbar(image, ax=axis, label="bonding β")
-    axis.set_xlabel("position along Γ_C (m)")
+    axis.set_xlabel(f"position along Γ_C ({units_of(result)['length']})")
     axis.set_ylabel("t (s)")
     axis.set_title("Bonding β along Γ_C over time")
     save(figure, target)

@@ -259,7 +259,8 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
              "at the end of the run (MB). *error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto "
              "the reference's meshes; *error vs check* the same against the check. Runs under 20 s are the fastest "
              "of 3 (this machine's timings drift by ±20 %).", "",
-             f"**Reference:** graded level {reference['nodes1']} + {reference['nodes2']} nodes, bdf2, N = "
+             f"**Reference:** the graded mesh two levels finer than the finest measured ({reference['nodes1']} + "
+             f"{reference['nodes2']} nodes), bdf2, N = "
              f"{reference['N']} (time error ≈ 1e-6). **Check:** an independent mesh of the same size — the graded "
              f"level between the finest measured and the reference's, split once ({check['nodes1']} + {check['nodes2']} nodes), same scheme and N. They lie "
              f"{100 * check['errorToReference']:.3f} % apart; the smallest error reported is {100 * smallest:.3f} %, "

@@ -197,8 +197,8 @@ def solver_sources_digest() -> str:
     return sha.hexdigest()
 
 
-# Scene keys that change no result: when a run checkpoints, and whether it makes images.
-RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images")
+# Scene keys that change no result: when a run checkpoints, whether it makes images and their units.
+RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images", "units")
 
 
 def inputs_of(scene: Scene) -> dict:

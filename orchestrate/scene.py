@@ -269,6 +269,8 @@ class Output(Strict):
     times: Literal["final", "all", "none"] | Annotated[list[Real], Field(min_length=1)] = PARAMETERS["outTimes"].default
     fields: list[Literal["bodies", "stress", "contact", "state"]] = PARAMETERS["outFields"].default.split(",")
     images: bool = Field(True, strict=True)
+    units: Literal["SI", "mm-N-s"] = Field("SI", description="what the images label the numbers with: SI (m, N, "
+                                           "N/m², s) or mm-N-s (mm, N, N/mm² = MPa, s); the solver needs none")
     checkpointEvery: int = field("checkpointEvery")
     checkpointSeconds: float = field("checkpointSeconds")
 

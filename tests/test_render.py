@@ -44,3 +44,16 @@ def test_a_field_uniform_to_round_off_is_shown_as_one_colour():
     assert colour_range(np.zeros(3)) == pytest.approx((-5e-7, 5e-7))
     spread = np.array([0.2, 0.9])
     assert colour_range(spread) == (0.2, 0.9)
+
+
+def test_the_images_label_the_scenes_units(tmp_path):
+    """output.units: the solver needs none (consistent units), the images must say which."""
+    from types import SimpleNamespace
+
+    from orchestrate.render import field_titles, units_of
+
+    (tmp_path / "scene.toml").write_text('[output]\nunits = "mm-N-s"\n')
+    units = units_of(SimpleNamespace(folder=tmp_path))
+    assert units == {"length": "mm", "stress": "MPa", "force": "N/mm"}
+    assert field_titles(units)["vonMises"] == "von Mises stress (MPa)"
+    assert units_of(SimpleNamespace(folder=tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
