@@ -78,6 +78,25 @@ def colour_range(values: np.ndarray, floor: float = 1e-6) -> tuple[float, float]
     return middle - 0.5 * width, middle + 0.5 * width
 
 
+def label_format(low: float, high: float, labels: int = 5) -> str:
+    """A printf format whose significant digits tell `labels` evenly spaced values in [low, high]
+    apart (a uniform field's 1e-6 wide bar would otherwise read 15.09 five times)."""
+    step = (high - low) / (labels - 1)
+    size = max(abs(low), abs(high))
+    if step <= 0 or size == 0:
+        return "%.4g"
+    return f"%.{max(4, math.ceil(math.log10(size / step)) + 2)}g"
+
+
+def steady_axis(axis, values: np.ndarray, floor: float = 1e-6) -> None:
+    """Plain tick labels (no '1e-11 + 14.37' offset) on a y axis, and a near-constant series shown
+    over at least `floor` of its size, like the colour bars, so its round-off does not fill the panel."""
+    axis.ticklabel_format(axis="y", useOffset=False)
+    low, high = colour_range(np.asarray(values, dtype=float), floor)
+    if high - low > float(np.ptp(values)):
+        axis.set_ylim(low, high)
+
+
 def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str, tuple[float, float]]:
     """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies.
     Returns the colour range each colour bar shows, read back from the rendered scene."""
@@ -88,7 +107,7 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
     for column, field in enumerate(("vonMises", "zeta")):
         plotter.subplot(0, column)
         limits = colour_range(np.concatenate([body[field] for body in bodies]))
-        bar = dict(title=titles[field], color="black", vertical=False, n_labels=5, fmt="%.4g",
+        bar = dict(title=titles[field], color="black", vertical=False, n_labels=5, fmt=label_format(*limits),
                    position_x=0.12, position_y=0.03, width=0.76, height=0.06, title_font_size=16,
                    label_font_size=14)
         for index, body in enumerate(bodies):
@@ -113,13 +132,14 @@ def plot_contact_line(result: Result, target: Path) -> Path:
     beta = line.cell_data["beta"][0]
     figure, axes = pyplot().subplots(3, 1, figsize=(7, 7.5), sharex=True)
     axes[0].stairs(beta, s, baseline=None, color="tab:green")
-    axes[0].ticklabel_format(axis="y", useOffset=False)
+    steady_axis(axes[0], beta)
     axes[0].set_ylabel("bonding β")
     axes[1].plot(s, line.point_data["gap"], "o-", ms=3)
     axes[1].axhline(0, color="grey", lw=0.8)
     units = units_of(result)
     axes[1].set_ylabel(f"gap g_h ({units['length']})\n(< 0: open)")
     axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
+    steady_axis(axes[2], line.point_data["pressure"])
     axes[2].set_ylabel(f"contact pressure ({units['stress']})")
     axes[2].set_xlabel(f"position along Γ_C ({units['length']})")
     figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
@@ -138,6 +158,7 @@ def plot_history(result: Result, target: Path) -> Path:
     for axis, (title, columns) in zip(axes.flat, panels):
         for column in columns:
             axis.plot(h["t"], h[column], label=column)
+        steady_axis(axis, np.concatenate([h[column] for column in columns]))
         axis.set_title(title, fontsize=10)
         if len(columns) > 1:
             axis.legend(fontsize=8)
