@@ -158,7 +158,6 @@ def test_run_resume_continues_a_killed_run_of_the_peel_scene(tmp_path):
 
 def test_resume_refuses_a_partial_run_of_other_inputs(tmp_path):
     out = tmp_path / "run"
-    partial = tmp_path / "run.partial"
     killed_runner(out, 50)
     with pytest.raises(RunError, match="checkpoint of a run of other inputs"):
         run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0}, resume=True)

@@ -19,7 +19,7 @@ from conftest import solve
 from orchestrate import Scene, SceneError, load_result, run, sweep
 from orchestrate.freefem import MAIN, REPO, InputError, run_script
 from orchestrate.manifest import IncompleteRun
-from orchestrate.mesh import CACHE, MeshError, MeshInfo, body_mesh, cache_key, read_msh
+from orchestrate.mesh import CACHE, MeshError, MeshInfo, body_mesh, read_msh
 from orchestrate.runner import SUFFIXES, RunError, TooLarge, require_labels
 
 PAPER = REPO / "scenes" / "paper.toml"
