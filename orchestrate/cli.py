@@ -16,7 +16,7 @@ from orchestrate.scene import SceneError, parse_value
 
 COMMANDS = ("orchestrate.runner", "orchestrate.sweep", "orchestrate.render", "orchestrate.gallery",
             "orchestrate.bench")
-STUDIES = ("orchestrate.convergence", "orchestrate.stability")
+STUDIES = ("orchestrate.convergence", "orchestrate.stability", "orchestrate.hertz")
 
 
 def parse_assignments(items: list[str], option: str) -> dict:
@@ -75,7 +75,7 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="python -m orchestrate", description=__doc__.split("\n\n")[0])
     commands = top.add_subparsers(dest="command", required=True)
     add_commands(commands, COMMANDS)
-    study = commands.add_parser("study", help="studies of a scene: convergence, stability")
+    study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz")
     add_commands(study.add_subparsers(dest="kind", required=True), STUDIES)
     return top
 

@@ -2,6 +2,7 @@
 physics says must happen. The gallery resolution runs through `python -m orchestrate gallery`."""
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -61,6 +62,30 @@ def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
     line = result.fields("contact")
     assert np.allclose(line.point_data["pressure"], pressure, rtol=1e-12)
     assert np.abs(line.point_data["gap"]).max() <= 1e-14
+
+
+def test_the_tilted_patch_in_plane_strain_has_its_out_of_plane_stress(tmp_path):
+    """The same uniform compression ε = e I, e = −0.01 t, in plane strain (ε33 = 0): with
+    λ = Eν/((1+ν)(1−2ν)) and 2G = E/(1+ν) (MODEL.md §2), σ11 = σ22 = (2μ + η)ė + ζ(2λ + 2G)e and
+    σ33 = 2μė + 2ζλe, so the von Mises stress of the 3D state is |σ11 − σ33| = |ηė + 2Gζe|:
+    the out-of-plane stress enters it, and run.json says the bodies are in plane strain."""
+    strain = {f"body{b}.material.planeStrain": True for b in (1, 2)}
+    result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final",
+                                                 "output.fields": ["bodies", "stress", "contact"], **strain})
+    p, h = result.params, result.history
+    E, nu, mu, eta, T = p["E1"], p["nu1"], p["mu1"], p["eta1"], p["T"]
+    zeta = h["zetaMin1"][-1]
+    lame, shear2 = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (1 + nu)
+    rate, e = -0.01, -0.01 * T
+    in_plane = (2 * mu + eta) * rate + zeta * (2 * lame + shear2) * e
+    out_of_plane = 2 * mu * rate + 2 * zeta * lame * e
+    for body in ("body1", "body2"):
+        mesh = result.fields(body)
+        assert np.allclose(cell_field(mesh, "sigma11"), in_plane, rtol=1e-12)
+        assert np.allclose(cell_field(mesh, "sigma33"), out_of_plane, rtol=1e-12)
+        assert np.allclose(cell_field(mesh, "vonMises"), abs(eta * rate + shear2 * zeta * e), rtol=1e-12)
+    facts = json.loads((result.folder / "run.json").read_text())
+    assert facts["stressState1"] == facts["stressState2"] == "plane strain"
 
 
 def test_the_peel_front_travels_from_the_lifted_end(tmp_path):

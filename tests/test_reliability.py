@@ -1,5 +1,6 @@
 """Reliability: bad input refused clearly at every entry point, no way to run code through a
 scene, nothing lost on failures and interruptions, and deterministic results."""
+import json
 import os
 import re
 import resource
@@ -98,11 +99,15 @@ def rectangle(tmp_path, name, **numbers):
     return gmsh_mesh("meshes/rectangle.geo", tmp_path / f"{name}.msh", **numbers)
 
 
-def test_contact_traces_that_are_not_the_same_segment_are_refused(tmp_path):
+def test_contact_traces_of_different_extents_meet_on_their_overlap(tmp_path):
+    """Once refused as "not the same segment" (MODEL.md §10 allows it): Γ_C is the overlap, body 1's
+    whole trace [0, 2] here, since body 2's [0, 3] covers it."""
     upper = rectangle(tmp_path, "upper", x1=2, y0=0, y1=1, n=4)
     lower = rectangle(tmp_path, "lower", x1=3, y0=-1, y1=0, n=6)
     done, _ = solve(tmp_path / "run", "-mesh1", upper, "-mesh2", lower, scene=SCENES / "blocks.idp")
-    assert done.returncode == 3 and "not the same segment" in done.error_line
+    assert done.returncode == 0, done.error_line
+    facts = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert facts["contactLength"] == pytest.approx(2.0, rel=1e-12) and facts["traceNodes1"] == 5
 
 
 def test_a_flag_without_its_value_is_refused(tmp_path):

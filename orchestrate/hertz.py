@@ -1,0 +1,207 @@
+"""Hertz line contact (scenes/hertz.toml) against the analytic solution, over mesh levels.
+
+For two cylinders' line contact (here a half-cylinder of radius R on a block, plane strain) the
+elastic solution with contact force F per unit thickness is
+  a = 2√(FR/(πE*)),  p0 = 2F/(πa),  p(x) = p0√(1 − x²/a²),  1/E* = (1 − ν1²)/E1 + (1 − ν2²)/E2.
+Each level runs the scene with both meshes' contact-zone size 1/n; F is the computed contact force
+(history.csv), and from the contact line (contact .vtu: the pressure λ_j/∫ψ_j at the nodes of θ1_h)
+  a_moment  = 2√(Σ λ_j x_j² / Σ λ_j), the half-width whose second moment the elliptical law has
+              (exact for it: ∫p x² / ∫p = a²/4), from all the nodal forces;
+  a_closed  = half the closed length of Γ_C (history.csv), resolved to the node spacing only;
+  p0        = the pressure at the first contact point x = 0 (a node of both meshes);
+  profile   = max |p(x_j) − p_analytic(x_j)| / p0_analytic over the nodes with |x_j| < 0.9 a.
+The errors are relative to the analytic values at the level's own F. They do not all fall to 0:
+Hertz's law is for a parabolic gap between half-spaces, and a circle's gap exceeds x²/(2R) by
+about x⁴/(8R³) (a relative a²/(4R²) ≈ 0.4 % at x = a here) on bodies of finite size. The mesh's
+own error is measured apart: *mesh a*, *mesh p0* are each level's distance to the finest level's
+value (relative to the analytic), and their observed orders between successive levels are log2
+of the ratio of those distances (each level halves the size).
+Writes hertz.csv, README.md, pressure.png and vonmises.png into --out (the runs are made in a
+temporary folder and removed).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+NAME, HELP = "hertz", "Hertz line contact against the analytic solution, over mesh levels"
+CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
+COLUMNS = ["case", "n", "nodes1", "nodes2", "F", "a", "aMoment", "aClosed", "p0", "p0Computed",
+           "errorA", "errorAClosed", "errorP0", "errorProfile", "meshA", "meshP0", "orderA", "orderP0"]
+
+
+def effective_modulus(params: dict) -> float:
+    return 1 / ((1 - params["nu1"] ** 2) / params["E1"] + (1 - params["nu2"] ** 2) / params["E2"])
+
+
+def analytic(force: float, radius: float, modulus: float) -> tuple[float, float]:
+    """Half-width a and peak pressure p0 of the line contact for force F."""
+    half_width = 2 * math.sqrt(force * radius / (math.pi * modulus))
+    return half_width, 2 * force / (math.pi * half_width)
+
+
+def contact_line(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x of θ1_h's nodes, their pressure and nodal force (pressure × ∫ψ_j), in x order."""
+    line = result.fields("contact")
+    x = line.points[:, 0]
+    order = np.argsort(x)
+    x, pressure = x[order], line.point_data["pressure"][order]
+    spacing = np.diff(x)
+    weight = 0.5 * (np.concatenate([[0.0], spacing]) + np.concatenate([spacing, [0.0]]))
+    return x, pressure, pressure * weight
+
+
+def measure(result, radius: float) -> dict:
+    params, history = result.params, result.history
+    force = float(history["contactForce"][-1])
+    a, p0 = analytic(force, radius, effective_modulus(params))
+    x, pressure, nodal = contact_line(result)
+    a_moment = 2 * math.sqrt(float(np.sum(nodal * x ** 2) / np.sum(nodal)))
+    a_closed = float(history["contactLength"][-1]) / 2
+    p0_computed = float(pressure[np.argmin(np.abs(x))])
+    inside = np.abs(x) < 0.9 * a
+    profile = float(np.max(np.abs(pressure[inside] - p0 * np.sqrt(1 - (x[inside] / a) ** 2))) / p0)
+    return {"F": force, "a": a, "aMoment": a_moment, "aClosed": a_closed, "p0": p0, "p0Computed": p0_computed,
+            "errorA": abs(a_moment - a) / a, "errorAClosed": abs(a_closed - a) / a,
+            "errorP0": abs(p0_computed - p0) / p0, "errorProfile": profile}
+
+
+def level_overrides(n: int) -> dict:
+    return {"body1.mesh.n": n, "body2.mesh.n": n}
+
+
+def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, radius: float = 8.0) -> list[dict]:
+    from orchestrate.freefem import REPO
+    from orchestrate.runner import run
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, finest = [], {}
+    with tempfile.TemporaryDirectory(prefix="hertz-") as scratch:
+        for case, overrides in CASES.items():
+            for level in range(levels):
+                n = coarsest * 2 ** level
+                folder = Path(scratch) / f"{case}-n{n}"
+                result = run(REPO / "scenes" / "hertz.toml", folder, {**overrides, **level_overrides(n)})
+                rows.append({"case": case, "n": n, **measure(result, radius), **node_counts(result)})
+                finest[case] = (n, result)
+            mesh_errors([row for row in rows if row["case"] == case])
+        write(out, rows, finest, radius, levels, coarsest)
+    return rows
+
+
+def mesh_errors(ladder: list[dict]) -> None:
+    """Each level's distance to the finest level's a and p0, and the orders between levels."""
+    top = ladder[-1]
+    for row in ladder[:-1]:
+        row["meshA"] = abs(row["aMoment"] - top["aMoment"]) / row["a"]
+        row["meshP0"] = abs(row["p0Computed"] - top["p0Computed"]) / row["p0"]
+    for coarse, fine in zip(ladder[:-2], ladder[1:-1]):
+        for order, distance in (("orderA", "meshA"), ("orderP0", "meshP0")):
+            fine[order] = math.log2(coarse[distance] / fine[distance]) if fine[distance] > 0 else float("nan")
+
+
+def node_counts(result) -> dict:
+    counts = json.loads((result.folder / "run.json").read_text())
+    return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"]}
+
+
+def write(out: Path, rows: list[dict], finest: dict, radius: float, levels: int, coarsest: int) -> None:
+    with open(out / "hertz.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, restval="")
+        writer.writeheader()
+        writer.writerows(rows)
+    plot_pressure(out / "pressure.png", finest, radius)
+    plot_von_mises(out / "vonmises.png", finest["same"][1])
+    (out / "README.md").write_text(report(rows, levels, coarsest))
+
+
+def report(rows: list[dict], levels: int, coarsest: int) -> str:
+    def cell(row, key, digits=4):
+        value = row.get(key, "")
+        return "" if value == "" else f"{value:.{digits}g}"
+
+    lines = ["# Hertz line contact against the analytic solution", "",
+             "Reproduce (from the repository root):", "", "```sh",
+             f"python -m orchestrate study hertz --levels {levels} --coarsest {coarsest}", "```", "",
+             (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "",
+             "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
+             "cylinder E = 600, ν = 0.2 (η = 3, the same relaxation time).", "",
+             "| case | n | nodes (block, cylinder) | F | a | a (moment) | error a | a (closed) | error | p0 | "
+             "p0 computed | error p0 | profile error | mesh a | mesh p0 | order a | order p0 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+
+    def percent(row, key):
+        return f"{100 * row[key]:.3f} %" if key in row else ""
+
+    for row in rows:
+        lines.append(f"| {row['case']} | {row['n']} | {row['nodes1']}, {row['nodes2']} | {cell(row, 'F')} | "
+                     f"{cell(row, 'a')} | {cell(row, 'aMoment')} | {percent(row, 'errorA')} | "
+                     f"{cell(row, 'aClosed')} | {percent(row, 'errorAClosed')} | {cell(row, 'p0')} | "
+                     f"{cell(row, 'p0Computed')} | {percent(row, 'errorP0')} | {percent(row, 'errorProfile')} | "
+                     f"{percent(row, 'meshA')} | {percent(row, 'meshP0')} | {cell(row, 'orderA', 3)} | "
+                     f"{cell(row, 'orderP0', 3)} |")
+    lines += ["", "![pressure](pressure.png)", "", "![von Mises](vonmises.png)", ""]
+    return "\n".join(lines)
+
+
+def plot_pressure(path: Path, finest: dict, radius: float) -> None:
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(6.4, 4.0), constrained_layout=True)
+    for (case, (n, result)), colour in zip(finest.items(), ("tab:blue", "tab:orange")):
+        x, pressure, _ = contact_line(result)
+        row = measure(result, radius)
+        a, p0 = row["a"], row["p0"]
+        shown = np.abs(x) < 1.6 * a
+        axis.plot(x[shown], pressure[shown], "o", ms=3, color=colour, label=f"{case}: computed (n = {n})")
+        curve = np.linspace(-a, a, 401)
+        axis.plot(curve, p0 * np.sqrt(1 - (curve / a) ** 2), "-", color=colour, lw=1, label=f"{case}: Hertz, F = {row['F']:.3g}")
+    axis.set_xlabel("x (m)")
+    axis.set_ylabel("contact pressure (Pa)")
+    axis.legend(fontsize=8)
+    axis.grid(alpha=0.3)
+    figure.savefig(path, dpi=150)
+    plt.close(figure)
+
+
+def plot_von_mises(path: Path, result) -> None:
+    """Von Mises stress (plane strain, σ33 included) of both bodies near the contact, drawn on the
+    undeformed meshes (the approach is 0.2 m: the gap left between the arc and the block is the
+    part of it outside the contact)."""
+    import matplotlib.pyplot as plt
+    import matplotlib.tri as mtri
+
+    from orchestrate.results import cell_field
+
+    figure, axis = plt.subplots(figsize=(6.4, 4.0), constrained_layout=True)
+    meshes = [result.fields(body) for body in ("body1", "body2")]
+    top = max(float(cell_field(mesh, "vonMises").max()) for mesh in meshes)  # (cells, 1) arrays
+    for mesh in meshes:
+        triangles = mtri.Triangulation(mesh.points[:, 0], mesh.points[:, 1], mesh.cells_dict["triangle"])
+        shading = axis.tripcolor(triangles, facecolors=cell_field(mesh, "vonMises").ravel(), vmin=0, vmax=top, cmap="viridis")
+    axis.set_xlim(-2.5, 2.5)
+    axis.set_ylim(-2.0, 1.2)
+    axis.set_aspect("equal")
+    axis.set_xlabel("x (m)")
+    axis.set_ylabel("y (m)")
+    figure.colorbar(shading, ax=axis, label="von Mises stress, plane strain (Pa)")
+    figure.savefig(path, dpi=150)
+    plt.close(figure)
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
+    parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
+    parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
+
+
+def command(options) -> int:
+    hertz(options.out, options.levels, options.coarsest)
+    print((Path(options.out) / "README.md").read_text())
+    return 0

@@ -1,0 +1,173 @@
+"""Contact boundaries of different extents and initial gaps (MODEL.md §10, docs/model-choices.md
+"Contact geometry"), each against an exact property of the discrete problem, and the geometry
+a scene may not have, refused before the time loop with the body, the label and the quantity."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from orchestrate.freefem import REPO
+from orchestrate.hertz import contact_line, hertz, measure
+from orchestrate.results import read_state
+from orchestrate.runner import SolverError, run
+
+NO_GLUE = """
+[glue]
+beta0 = 0.0
+gammaR = 0.0
+"""
+
+
+def scene(folder, name: str, body1: str, body2: str, extra: str = "", steps: int = 20):
+    """A scene of two rectangles (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top, 4 left)."""
+    path = folder / f"{name}.toml"
+    path.write_text(f'title = "{name}"\n[time]\nT = 1.0\nN = {steps}\nscheme = "semi-implicit"\n'
+                    f"{body1}\n{body2}\n{NO_GLUE}{extra}\n"
+                    '[output]\ntimes = "all"\nfields = ["contact", "state"]\nimages = false\n')
+    return path
+
+
+def pressed_block(rectangle: list[float], n: int, contact: int, press: str) -> str:
+    """Body 1: a rectangle whose top is moved by u = (0, press); its bottom is the contact side."""
+    return (f"[body1.mesh]\nrectangle = {rectangle}\nn = {n}\ncontactLabel = {contact}\n"
+            '[[body1.boundary]]\ntype = "displacement"\nlabel = 3\ncomponent = "x"\nvalue = "0"\n'
+            f'[[body1.boundary]]\ntype = "displacement"\nlabel = 3\ncomponent = "y"\nvalue = "{press}"\n')
+
+
+def clamped_base(rectangle: list[float], n: int) -> str:
+    """Body 2: a rectangle clamped at its bottom, its top the contact side."""
+    return (f"[body2.mesh]\nrectangle = {rectangle}\nn = {n}\ncontactLabel = 3\n"
+            '[[body2.boundary]]\ntype = "clamped"\nlabel = 1\n')
+
+
+def final_state(result):
+    return read_state(result.folder / f"state_{result.params['N']:04d}.txt")
+
+
+def test_an_initial_gap_is_a_translation_of_the_closed_problem(tmp_path):
+    """Body 2 lowered by δ (the same mesh, translated: g0 = δ) with body 1's top moved by −ct is, step by step,
+    the problem without gap whose top moves by δ − ct, translated by −δ: body 1's strains, the
+    viscous and damage terms see no translation, g_h(u − δ e_y) = g_h(u) + δ and π1 δ = δ. So the
+    bodies meet at t = δ/c, the forces and ζ agree to round-off and u¹ differs by exactly δ."""
+    delta, c = 0.01, 0.02
+    gap = run(scene(tmp_path, "gap", pressed_block([0.0, 1.0, 0.0, 1.0], 6, 1, f"-{c}*t"),
+                    clamped_base([0.0, 1.0, -1.0 - delta, -delta], 8)), tmp_path / "gap")
+    closed = run(scene(tmp_path, "closed", pressed_block([0.0, 1.0, 0.0, 1.0], 6, 1, f"{delta}-{c}*t"),
+                       clamped_base([0.0, 1.0, -1.0, 0.0], 8)), tmp_path / "closed")
+    h, g = gap.history, closed.history
+    apart, touching = h["t"] < delta / c - 1e-9, h["t"] > delta / c + 1e-9
+    assert np.all(h["contactForce"][apart] == 0) and np.all(h["contactLength"][apart] == 0)
+    assert np.all(h["contactForce"][touching] > 0) and np.all(h["contactLength"][touching] == pytest.approx(1.0))
+    scale = g["contactForce"].max()
+    assert np.all(np.abs(h["contactForce"][~apart & ~touching]) <= 1e-12 * scale)  # they just meet
+    assert np.allclose(h["contactForce"], g["contactForce"], rtol=0, atol=1e-9 * scale)
+    assert np.all(h["gapMax"] <= gap.params["contactTol"])
+    assert np.allclose(h["zetaMin1"], g["zetaMin1"], rtol=1e-12) and np.allclose(h["zetaMin2"], g["zetaMin2"], rtol=1e-12)
+    a, b = final_state(gap), final_state(closed)
+    assert np.allclose(a["u1"][1::2], b["u1"][1::2] - delta, rtol=0, atol=1e-12)
+    assert np.allclose(a["u1"][0::2], b["u1"][0::2], rtol=0, atol=1e-12)
+    assert np.allclose(a["u2"], b["u2"], rtol=0, atol=1e-12)
+    line = gap.fields("contact")
+    assert np.allclose(line.point_data["initialGap"], delta, rtol=1e-12)
+    assert "initialGap" not in closed.fields("contact").point_data
+
+
+def test_a_short_block_on_a_long_base_is_in_contact_on_its_own_extent(tmp_path):
+    """A block whose ends fall inside the base's trace segments: θ1_h is the base's trace on the
+    block's extent, with a node at each end (MODEL.md §10). π1 reproduces constants there (body
+    2's hats sum to 1 on Γ_C), so the contact forces on the two bodies cancel to round-off; the
+    closed length is the block's width, and no node outside it carries a force."""
+    base = ("[body1.mesh]\nrectangle = [-3.0, 3.0, -2.0, 0.0]\nn = 24\ncontactLabel = 3\n"
+            '[[body1.boundary]]\ntype = "clamped"\nlabel = 1\n')
+    block = ("[body2.mesh]\nrectangle = [-0.55, 0.45, 0.0, 1.0]\nn = 8\ncontactLabel = 1\n"
+             '[[body2.boundary]]\ntype = "displacement"\nlabel = 3\ncomponent = "x"\nvalue = "0"\n'
+             '[[body2.boundary]]\ntype = "displacement"\nlabel = 3\ncomponent = "y"\nvalue = "-0.01*t"\n')
+    result = run(scene(tmp_path, "block", base, block), tmp_path / "block")
+    h = result.history
+    scale = h["contactForce"].max()
+    assert scale > 0
+    assert np.all(h["forceBalance"] <= 1e-12 * scale)
+    assert h["contactLength"][-1] == pytest.approx(1.0, rel=1e-12)
+    line = result.fields("contact")
+    x = line.points[:, 0]
+    assert x.min() == pytest.approx(-0.55, abs=1e-12) and x.max() == pytest.approx(0.45, abs=1e-12)
+    assert np.all(line.point_data["pressure"] >= 0) and np.all(line.point_data["gap"] <= result.params["contactTol"])
+
+
+def refused(tmp_path, name: str, body1: str, body2: str) -> str:
+    with pytest.raises(SolverError) as error:
+        run(scene(tmp_path, name, body1, body2), tmp_path / name)
+    assert error.value.returncode == 3
+    return error.value.message
+
+
+def test_contact_boundaries_that_do_not_overlap_are_refused(tmp_path):
+    message = refused(tmp_path, "apart", pressed_block([4.0, 5.0, 0.0, 1.0], 4, 1, "-0.01*t"),
+                      clamped_base([0.0, 3.0, -1.0, 0.0], 6))
+    assert "do not overlap" in message and "label 1" in message and "label 3" in message
+
+
+def test_bodies_that_overlap_at_the_start_are_refused(tmp_path):
+    message = refused(tmp_path, "overlap", pressed_block([0.0, 1.0, 0.0, 1.0], 6, 1, "-0.01*t"),
+                      clamped_base([0.0, 1.0, -1.0, 0.02], 8))
+    assert "overlap at the start" in message and "label 3" in message and "0.02" in message
+
+
+def test_a_contact_boundary_that_does_not_face_the_other_is_refused(tmp_path):
+    """Body 2's bottom as its contact side: it faces away from body 1."""
+    base = clamped_base([0.0, 1.0, -1.0, 0.0], 8).replace("contactLabel = 3", "contactLabel = 1").replace(
+        "label = 1\n", "label = 3\n")
+    message = refused(tmp_path, "away", pressed_block([0.0, 1.0, 0.0, 1.0], 6, 1, "-0.01*t"), base)
+    assert "does not face body 1" in message and "label 1" in message
+
+
+HERTZ = REPO / "scenes" / "hertz.toml"
+
+
+def test_hertz_at_a_coarse_level_agrees_with_the_analytic_line_contact(tmp_path):
+    """scenes/hertz.toml at n = 8 (results/hertz has the ladder): the half-width and the peak
+    pressure within 3 % of a = 2√(FR/(πE*)), p0 = 2F/(πa) at the computed F, the pressure within
+    5 % of p0 at every node with |x| < 0.9a; no penetration, forces balanced, complementarity."""
+    result = run(HERTZ, tmp_path / "hertz", {"body1.mesh.n": 8, "body2.mesh.n": 8})
+    row = measure(result, radius=8.0)
+    assert row["F"] > 0
+    assert row["errorA"] <= 0.03 and row["errorP0"] <= 0.03 and row["errorProfile"] <= 0.05
+    h, p = result.history, result.params
+    assert h["gapMax"].max() <= p["contactTol"] and h["lambdaMin"].min() >= 0
+    assert h["complementarity"].max() <= p["contactTol"] * h["contactForce"].max()
+    assert h["forceBalance"].max() <= 1e-10 * h["contactForce"].max()
+    x, pressure, _ = contact_line(result)
+    outside = np.abs(x) > 1.2 * row["a"]
+    assert np.all(pressure[outside] == 0), "no force where the arc stays apart"
+    assert np.all(result.fields("contact").point_data["initialGap"] >= 0)
+
+
+def hertz_refused(tmp_path, name: str, overrides: dict) -> str:
+    with pytest.raises(SolverError) as error:
+        run(HERTZ, tmp_path / name, {"body1.mesh.n": 4, "body2.mesh.n": 4, **overrides})
+    assert error.value.returncode == 3
+    return error.value.message
+
+
+def test_a_curved_mortar_side_is_refused(tmp_path):
+    """The arc as body 1's contact boundary: body 1's must be straight."""
+    swap = {"body1.mesh.geo": "meshes/hertz_cylinder.geo", "body2.mesh.geo": "meshes/hertz_block.geo",
+            "body2.boundary": [{"type": "clamped", "label": 3}],
+            "body1.boundary": [{"type": "clamped", "label": 2}]}
+    message = hertz_refused(tmp_path, "curved", swap)
+    assert "body 1's potential contact boundary (label 1) is not straight" in message
+
+
+def test_an_arc_that_folds_over_its_projection_is_refused(tmp_path):
+    """A 240° arc passes its equator: lines normal to the block cross it twice."""
+    message = hertz_refused(tmp_path, "folded", {"body2.mesh.parameters": {"angle": 240}})
+    assert "does not project one-to-one" in message and "label 1" in message
+
+
+def test_the_hertz_study_writes_its_ladder(tmp_path):
+    """`study hertz` at a small size: both cases, the mesh distances to the finest level, files."""
+    rows = hertz(tmp_path, levels=2, coarsest=4)
+    assert [(row["case"], row["n"]) for row in rows] == [("same", 4), ("same", 8), ("dissimilar", 4), ("dissimilar", 8)]
+    assert all(0 < row["errorA"] < 0.05 and 0 < row["errorP0"] < 0.05 for row in rows)
+    assert "meshA" in rows[0] and "meshA" not in rows[1]
+    assert {path.name for path in tmp_path.iterdir()} >= {"README.md", "hertz.csv", "pressure.png", "vonmises.png"}
