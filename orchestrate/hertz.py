@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 NAME, HELP = "hertz", "Hertz line contact against the analytic solution, over mesh levels"
+RADIUS = 8.0  # R of meshes/hertz_cylinder.geo, which scenes/hertz.toml keeps
 CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
 COLUMNS = ["case", "n", "nodes1", "nodes2", "F", "a", "aMoment", "aClosed", "p0", "p0Computed",
            "errorA", "errorAClosed", "errorP0", "errorProfile", "meshA", "meshP0", "orderA", "orderP0"]
@@ -71,11 +72,7 @@ def measure(result, radius: float) -> dict:
             "errorP0": abs(p0_computed - p0) / p0, "errorProfile": profile}
 
 
-def level_overrides(n: int) -> dict:
-    return {"body1.mesh.n": n, "body2.mesh.n": n}
-
-
-def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, radius: float = 8.0) -> list[dict]:
+def hertz(out: str | Path, levels: int = 4, coarsest: int = 8) -> list[dict]:
     from orchestrate.freefem import REPO
     from orchestrate.runner import run
 
@@ -87,11 +84,11 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, radius: float = 8
             for level in range(levels):
                 n = coarsest * 2 ** level
                 folder = Path(scratch) / f"{case}-n{n}"
-                result = run(REPO / "scenes" / "hertz.toml", folder, {**overrides, **level_overrides(n)})
-                rows.append({"case": case, "n": n, **measure(result, radius), **node_counts(result)})
-                finest[case] = (n, result)
+                result = run(REPO / "scenes" / "hertz.toml", folder, {**overrides, "body1.mesh.n": n, "body2.mesh.n": n})
+                rows.append({"case": case, "n": n, **measure(result, RADIUS), **node_counts(result)})
+                finest[case] = (rows[-1], result)
             mesh_errors([row for row in rows if row["case"] == case])
-        write(out, rows, finest, radius, levels, coarsest)
+        write(out, rows, finest, levels, coarsest)
     return rows
 
 
@@ -111,12 +108,13 @@ def node_counts(result) -> dict:
     return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"]}
 
 
-def write(out: Path, rows: list[dict], finest: dict, radius: float, levels: int, coarsest: int) -> None:
+def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int) -> None:
+    """The table, the report and the figures; `finest` maps each case to its finest (row, result)."""
     with open(out / "hertz.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=COLUMNS, restval="")
         writer.writeheader()
         writer.writerows(rows)
-    plot_pressure(out / "pressure.png", finest, radius)
+    plot_pressure(out / "pressure.png", finest)
     plot_von_mises(out / "vonmises.png", finest["same"][1])
     (out / "README.md").write_text(report(rows, levels, coarsest))
 
@@ -129,7 +127,7 @@ def report(rows: list[dict], levels: int, coarsest: int) -> str:
     lines = ["# Hertz line contact against the analytic solution", "",
              "Reproduce (from the repository root):", "", "```sh",
              f"python -m orchestrate study hertz --levels {levels} --coarsest {coarsest}", "```", "",
-             (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "",
+             "```text", (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "```", "",
              "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
              "cylinder E = 600, ν = 0.2 (η = 3, the same relaxation time).", "",
              "| case | n | nodes (block, cylinder) | F | a | a (moment) | error a | a (closed) | error | p0 | "
@@ -150,14 +148,13 @@ def report(rows: list[dict], levels: int, coarsest: int) -> str:
     return "\n".join(lines)
 
 
-def plot_pressure(path: Path, finest: dict, radius: float) -> None:
+def plot_pressure(path: Path, finest: dict) -> None:
     import matplotlib.pyplot as plt
 
     figure, axis = plt.subplots(figsize=(6.4, 4.0), constrained_layout=True)
-    for (case, (n, result)), colour in zip(finest.items(), ("tab:blue", "tab:orange")):
+    for (case, (row, result)), colour in zip(finest.items(), ("tab:blue", "tab:orange")):
         x, pressure, _ = contact_line(result)
-        row = measure(result, radius)
-        a, p0 = row["a"], row["p0"]
+        n, a, p0 = row["n"], row["a"], row["p0"]
         shown = np.abs(x) < 1.6 * a
         axis.plot(x[shown], pressure[shown], "o", ms=3, color=colour, label=f"{case}: computed (n = {n})")
         curve = np.linspace(-a, a, 401)
