@@ -1,6 +1,7 @@
 """Load expressions of scenes: a whitelist parser.
 
-A scene gives loads and prescribed displacements as expressions in x, y, t. They reach FreeFEM
+A scene gives loads and prescribed displacements as expressions in x, y, t, and position-dependent
+initial data (ζ⁰, β⁰) as expressions in x, y. They reach FreeFEM
 only through this module: the text is tokenized and parsed into a tree by the grammar below, and
 FreeFEM code is written from the tree, never from the text. Anything outside the grammar is
 refused with the position and what was allowed, before FreeFem++ starts.
@@ -39,10 +40,10 @@ TOKEN = re.compile(r"\s*(?:(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
 class ExpressionError(ValueError):
     """An expression outside the whitelist grammar."""
 
-    def __init__(self, text: str, position: int, problem: str):
+    def __init__(self, text: str, position: int, problem: str, variables: tuple[str, ...] = VARIABLES):
         self.text, self.position, self.problem = text, position, problem
         shown = text if len(text) <= 80 else text[:77] + "..."
-        super().__init__(f"{problem} at position {position} of '{shown}' (allowed: numbers, x, y, t, "
+        super().__init__(f"{problem} at position {position} of '{shown}' (allowed: numbers, {', '.join(variables)}, "
                          f"+ - * / ^, parentheses, comparisons, and {', '.join(sorted(FUNCTIONS))})")
 
 
@@ -94,8 +95,8 @@ def tokenize(text: str) -> list[tuple[str, str, int]]:
 
 
 class Parser:
-    def __init__(self, text: str):
-        self.text = text
+    def __init__(self, text: str, variables: tuple[str, ...] = VARIABLES):
+        self.text, self.variables = text, variables
         self.tokens = tokenize(text)
         self.index = 0
         self.depth = 0
@@ -105,7 +106,7 @@ class Parser:
 
     def fail(self, problem: str):
         token = self.peek()
-        raise ExpressionError(self.text, token[2] if token else len(self.text), problem)
+        raise ExpressionError(self.text, token[2] if token else len(self.text), problem, self.variables)
 
     def take(self, token: str):
         current = self.peek()
@@ -120,7 +121,8 @@ class Parser:
         if self.peek() is not None:
             self.fail(f"unexpected '{self.peek()[1]}'")
         if tree_depth(tree) > MAX_TREE_DEPTH:
-            raise ExpressionError(self.text, 0, f"expression deeper than {MAX_TREE_DEPTH} operations in a chain")
+            raise ExpressionError(self.text, 0, f"expression deeper than {MAX_TREE_DEPTH} operations in a chain",
+                                  self.variables)
         return tree
 
     def deeper(self):
@@ -187,7 +189,7 @@ class Parser:
             return Number(value)
         if kind == "name":
             self.index += 1
-            if text in VARIABLES:
+            if text in self.variables:
                 return Variable(text)
             if text not in FUNCTIONS:
                 self.index -= 1
@@ -230,11 +232,11 @@ def tree_depth(tree) -> int:
     return deepest
 
 
-def parse(text: str):
-    """The syntax tree of an expression, or ExpressionError."""
+def parse(text: str, variables: tuple[str, ...] = VARIABLES):
+    """The syntax tree of an expression in `variables` (a subset of x, y, t), or ExpressionError."""
     if not isinstance(text, str):
-        raise ExpressionError(repr(text), 0, f"an expression must be a string, got {type(text).__name__}")
-    return Parser(text).parse()
+        raise ExpressionError(repr(text), 0, f"an expression must be a string, got {type(text).__name__}", variables)
+    return Parser(text, variables).parse()
 
 
 def number_code(value: float) -> str:

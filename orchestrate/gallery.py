@@ -7,7 +7,7 @@ from pathlib import Path
 from orchestrate.freefem import REPO
 from orchestrate.scene import SceneError
 
-SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad")
+SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad", "hertz", "punch", "precrack")
 
 NAME, HELP = "gallery", "run the gallery scenes into results/gallery"
 
@@ -25,5 +25,9 @@ def command(options) -> int:
         raise SceneError(f"no gallery scene {', '.join(unknown)} (the gallery: {', '.join(SCENES)})")
     for name in options.names or SCENES:
         result = run(REPO / "scenes" / f"{name}.toml", Path(options.out) / name, force=True, progress=sys.stderr.isatty())
+        if name == "hertz":  # its comparison with the analytic solution, as in results/hertz
+            from orchestrate.hertz import gallery_figures
+
+            gallery_figures(result, result.folder)
         print(f"{name}: {result.folder}")
     return 0

@@ -84,7 +84,8 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8) -> list[dict]:
             for level in range(levels):
                 n = coarsest * 2 ** level
                 folder = Path(scratch) / f"{case}-n{n}"
-                result = run(REPO / "scenes" / "hertz.toml", folder, {**overrides, "body1.mesh.n": n, "body2.mesh.n": n})
+                result = run(REPO / "scenes" / "hertz.toml", folder,
+                             {**overrides, "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False})
                 rows.append({"case": case, "n": n, **measure(result, RADIUS), **node_counts(result)})
                 finest[case] = (rows[-1], result)
             mesh_errors([row for row in rows if row["case"] == case])
@@ -156,9 +157,10 @@ def plot_pressure(path: Path, finest: dict) -> None:
         x, pressure, _ = contact_line(result)
         n, a, p0 = row["n"], row["a"], row["p0"]
         shown = np.abs(x) < 1.6 * a
-        axis.plot(x[shown], pressure[shown], "o", ms=3, color=colour, label=f"{case}: computed (n = {n})")
+        prefix = f"{case}: " if case else ""
+        axis.plot(x[shown], pressure[shown], "o", ms=3, color=colour, label=f"{prefix}computed (n = {n})")
         curve = np.linspace(-a, a, 401)
-        axis.plot(curve, p0 * np.sqrt(1 - (curve / a) ** 2), "-", color=colour, lw=1, label=f"{case}: Hertz, F = {row['F']:.3g}")
+        axis.plot(curve, p0 * np.sqrt(1 - (curve / a) ** 2), "-", color=colour, lw=1, label=f"{prefix}Hertz, F = {row['F']:.3g}")
     axis.set_xlabel("x (m)")
     axis.set_ylabel("contact pressure (Pa)")
     axis.legend(fontsize=8)
@@ -190,6 +192,19 @@ def plot_von_mises(path: Path, result) -> None:
     figure.colorbar(shading, ax=axis, label="von Mises stress, plane strain (Pa)")
     figure.savefig(path, dpi=150)
     plt.close(figure)
+
+
+def gallery_figures(result, folder: Path) -> list[Path]:
+    """The gallery's Hertz figures of one run: its pressure against the analytic curve at its own
+    F, and the von Mises stress under the contact."""
+    import tomllib
+
+    scene = tomllib.loads((result.folder / "scene.toml").read_text())
+    row = {"n": scene["body1"]["mesh"]["n"], **measure(result, RADIUS)}
+    paths = [folder / "pressure.png", folder / "vonmises.png"]
+    plot_pressure(paths[0], {"": (row, result)})
+    plot_von_mises(paths[1], result)
+    return paths
 
 
 def add_arguments(parser) -> None:

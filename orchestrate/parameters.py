@@ -99,7 +99,8 @@ def scene_value(data: dict, dotted: str):
 
 def driver_values(scene_data: dict) -> dict[str, float | int | str]:
     """A scene's values (its JSON dump) under the driver's names, for every table row with a
-    scene key: flags as 0/1, lists (output times, field groups) as comma-separated text."""
+    scene key: flags as 0/1, lists (output times, field groups) as comma-separated text; a real
+    given as an expression of x, y (ζ⁰, β⁰) is not a value of the driver's."""
     from orchestrate.expr import number_code
 
     values = {}
@@ -109,6 +110,8 @@ def driver_values(scene_data: dict) -> dict[str, float | int | str]:
         keys = [f"body{i}.{parameter.scene}" for i in BODIES] if parameter.scope == "body" else [parameter.scene]
         for name, key in zip(parameter.driver_names(), keys):
             value = scene_value(scene_data, key)
+            if parameter.type == "real" and isinstance(value, str):
+                continue  # initial data given by position: an expression, written as a macro (scene.py)
             if isinstance(value, bool):
                 value = int(value)
             elif isinstance(value, list):

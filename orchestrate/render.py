@@ -125,23 +125,36 @@ def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str
     return shown
 
 
+def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str]:
+    """The position of the contact line's nodes and its axis label: x (or y) when Γ_C is parallel
+    to that axis, as users place things, else the distance from its first node."""
+    for axis, name in ((0, "x"), (1, "y")):
+        other = points[:, 1 - axis]
+        if np.ptp(other) <= 1e-9 * max(np.ptp(points[:, axis]), 1e-300):
+            return points[:, axis], f"{name} ({length_unit})"
+    return np.linalg.norm(points - points[0], axis=1), f"position along Γ_C ({length_unit})"
+
+
 def plot_contact_line(result: Result, target: Path) -> Path:
-    """β, the gap g_h and the contact pressure along Γ_C at the final output time."""
+    """β, the gap and the contact pressure along Γ_C at the final output time; with an initial gap
+    g0 the gap is shown as g_h − π1 g0, so that 0 is closed there too."""
     line = result.fields("contact")
-    s = np.linalg.norm(line.points - line.points[0], axis=1)
+    units = units_of(result)
+    s, position_label = line_position(line.points, units["length"])
     beta = line.cell_data["beta"][0]
     figure, axes = pyplot().subplots(3, 1, figsize=(7, 7.5), sharex=True)
     axes[0].stairs(beta, s, baseline=None, color="tab:green")
     steady_axis(axes[0], beta)
     axes[0].set_ylabel("bonding β")
-    axes[1].plot(s, line.point_data["gap"], "o-", ms=3)
+    initial = line.point_data.get("initialGap")
+    opening = line.point_data["gap"] - (initial if initial is not None else 0)
+    axes[1].plot(s, opening, "o-", ms=3)
     axes[1].axhline(0, color="grey", lw=0.8)
-    units = units_of(result)
-    axes[1].set_ylabel(f"gap g_h ({units['length']})\n(< 0: open)")
+    axes[1].set_ylabel(f"{'g_h − π1 g0' if initial is not None else 'gap g_h'} ({units['length']})\n(< 0: open)")
     axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
     steady_axis(axes[2], line.point_data["pressure"])
     axes[2].set_ylabel(f"contact pressure ({units['stress']})")
-    axes[2].set_xlabel(f"position along Γ_C ({units['length']})")
+    axes[2].set_xlabel(position_label)
     figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
     save(figure, target, dpi=120)
     return target
@@ -176,7 +189,7 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     for time, files in result.outputs:
         if "contact" in files:
             line = meshio.read(files["contact"])
-            edges = np.linalg.norm(line.points - line.points[0], axis=1)
+            edges, position_label = line_position(line.points, units_of(result)["length"])
             rows.append(line.cell_data["beta"][0])
             times.append(time)
     times = np.array(times)
@@ -185,7 +198,7 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     figure, axis = pyplot().subplots(figsize=(7, 4.2))
     image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=0, vmax=1, shading="flat")
     figure.colorbar(image, ax=axis, label="bonding β")
-    axis.set_xlabel(f"position along Γ_C ({units_of(result)['length']})")
+    axis.set_xlabel(position_label)
     axis.set_ylabel("t (s)")
     axis.set_title("Bonding β along Γ_C over time")
     save(figure, target)

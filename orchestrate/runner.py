@@ -382,7 +382,7 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
         if info.smallest_area < meshing.GMSHLOAD_SMALLEST_AREA:
             meshing.write_freefem(path, target)
         infos.append(info)
-    constraints = infos[0].segments.get(scene.body1.mesh.contactLabel, 0) + 1
+    constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
     pdas = scene.solver.contactSolver == "pdas"
     budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas else 0
     need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget)
@@ -398,11 +398,13 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
 def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
     """Every label the scene names must be a boundary label of the body's mesh: a condition on a
     missing label acts on nothing and the run would silently be another problem."""
-    named = [(f"body{index}.mesh.contactLabel", body.mesh.contactLabel)]
-    named += [(f"body{index}.boundary.{j}.label", condition.label) for j, condition in enumerate(body.boundary)]
+    contact = body.mesh.contactLabel
+    named = [(f"body{index}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}", label) for label in contact]
+    named += [(f"body{index}.boundary.{j}.label = {condition.label}", condition.label)
+              for j, condition in enumerate(body.boundary)]
     for key, label in named:
         if label not in info.segments:
-            raise SceneError(f"{key} = {label}: body {index}'s mesh has no boundary label {label} "
+            raise SceneError(f"{key}: body {index}'s mesh has no boundary label {label} "
                              f"(its labels: {', '.join(map(str, sorted(info.segments)))})")
 
 

@@ -48,9 +48,52 @@ def _expression(value):
 
 
 Expression = Annotated[str, BeforeValidator(_expression)]
+
+
+def initial_value(name: str):
+    """A field for initial data given per position: a number in the table's range, or an
+    expression of x, y (never t: it is the state at t = 0) whose values FreeFEM checks against the
+    same range at every node before the first step. An expression that is a number is that number."""
+    parameter = PARAMETERS[name]
+    low, high = parameter.bounds["ge"], parameter.bounds["le"]
+
+    def validate(value):
+        if isinstance(value, str):
+            try:
+                tree = expr.parse(value, ("x", "y"))
+            except expr.ExpressionError as error:
+                raise ValueError(f"{error} (initial data are an expression of the position x, y)") from None
+            if not isinstance(tree, expr.Number):
+                return value
+            value = tree.value
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise ValueError(f"give a number in {parameter.range} or an expression of x, y as a string")
+        if not low <= value <= high:  # also refuses nan (and integers beyond every double)
+            raise ValueError(f"{value} is outside {parameter.range}")
+        return float(value)
+
+    return Annotated[Union[float, str], BeforeValidator(validate), Field(parameter.value(), description=parameter.meaning)]
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]  # a number, never a boolean or a text
 MESHES = REPO / "meshes"
 IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
+LABEL = {"ge": 0, "le": 2 ** 30}  # a boundary label: the range contactLabel's meaning gives (parameters.md)
+
+
+def _contact_labels(value):
+    """mesh.contactLabel: one boundary label or a list of them (a contact boundary of several
+    parts, which must form one curve: the driver checks that against the mesh), each once."""
+    labels = value if isinstance(value, list) else [value]
+    if not labels:
+        raise ValueError("give a boundary label or a list of them, like 3 or [1, 5]")
+    for label in labels:
+        if not isinstance(label, int) or isinstance(label, bool) or not LABEL["ge"] <= label <= LABEL["le"]:
+            raise ValueError(f"{label!r} is not a boundary label (allowed: integers in [0, {LABEL['le']}], one or a list)")
+    if len(set(labels)) < len(labels):
+        raise ValueError("a label is named twice")
+    return labels
+
+
+ContactLabels = Annotated[list[int], BeforeValidator(_contact_labels)]
 
 
 class Strict(BaseModel):
@@ -67,7 +110,8 @@ class Mesh(Strict):
     structured: bool | None = Field(None, strict=True)
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = {}
-    contactLabel: int = field("contactLabel")
+    contactLabel: ContactLabels = Field([int(label) for label in PARAMETERS["contactLabel"].default.split(",")],
+                                        description=PARAMETERS["contactLabel"].meaning)
 
     @model_validator(mode="after")
     def one_source(self):
@@ -147,30 +191,30 @@ class BodyDamage(Strict):
     lambdaD: float = field("lambdaD")
     lambdaU: float = field("lambdaU")
     lambdaW: float = field("lambdaW")
-    zeta0: float = field("zeta0")
+    zeta0: initial_value("zeta0")
 
 
 class Clamped(Strict):
     type: Literal["clamped"]
-    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
+    label: int = Field(strict=True, **LABEL)
 
 
 class Roller(Strict):
     type: Literal["roller"]
-    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
+    label: int = Field(strict=True, **LABEL)
     component: Literal["x", "y"]
 
 
 class Displacement(Strict):
     type: Literal["displacement"]
-    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
+    label: int = Field(strict=True, **LABEL)
     component: Literal["x", "y"]
     value: Expression
 
 
 class Traction(Strict):
     type: Literal["traction"]
-    label: int = Field(strict=True, **PARAMETERS["contactLabel"].bounds)  # a boundary label, like Γ_C's
+    label: int = Field(strict=True, **LABEL)
     fx: Expression = "0"
     fy: Expression = "0"
 
@@ -200,8 +244,6 @@ class Body(Strict):
             if isinstance(condition, Traction):
                 if prescribed.get(condition.label) == {"x", "y"}:
                     raise ValueError(f"label {condition.label}: a traction on a boundary whose displacement is prescribed")
-                if condition.label == self.mesh.contactLabel:
-                    raise ValueError(f"label {condition.label} is the contact label: Γ_C carries no given traction")
         if not prescribed:
             raise ValueError("no clamped, roller or displacement condition: the body would float (MODEL.md §1)")
         return self
@@ -241,7 +283,7 @@ class Glue(Strict):
     gammaR: float = field("gammaR")
     pTau: float = field("pTau")
     L: float = field("L")
-    beta0: float = field("beta0")
+    beta0: initial_value("beta0")
 
 
 class DamageNumerics(Strict):
@@ -492,6 +534,12 @@ def to_freefem_scene(scene: Scene) -> str:
     for name, value in parameters.items():
         code = f'"{value}"' if isinstance(value, str) else _number(value)
         lines.append(f'setParam("{name}", {code});')
+    # Initial data by position (docs/model-choices.md, "Initial data"): a macro of x, y that the
+    # driver evaluates at the nodes of ζ and at the segment midpoints of β.
+    initial = [(f"initialDamage{i}", body.damage.zeta0) for i, body in ((1, scene.body1), (2, scene.body2))]
+    for name, value in initial + [("initialBonding", scene.glue.beta0)]:
+        if isinstance(value, str):
+            lines.append(f"macro {name}(x, y) {expr.to_freefem(expr.parse(value, ('x', 'y')))} //")
     for i, body in ((1, scene.body1), (2, scene.body2)):
         lines.append(f"macro dirichlet{i}(ux, uy) {_dirichlet(body)} //")
         loads = _loads(body, i)

@@ -1,5 +1,6 @@
 """The gallery scenes (scenes/, docs/gallery.md) at a coarse level, each against what its
-physics says must happen. The gallery resolution runs through `python -m orchestrate gallery`."""
+physics says must happen (the Hertz scene's, against the analytic line contact, is in
+tests/test_geometry.py). The gallery resolution runs through `python -m orchestrate gallery`."""
 from __future__ import annotations
 
 import json
@@ -26,12 +27,15 @@ def coarse(name: str, folder, **overrides) -> Result:
 
 
 def check_interface(result: Result) -> None:
-    """What every run must satisfy: the contact and glue forces on the two bodies cancel, and
-    no node penetrates beyond the contact tolerance (g_h ≤ contactTol)."""
+    """What every run must satisfy: the contact and glue forces on the two bodies cancel, no node
+    penetrates beyond the contact tolerance (g_h − π1 g0 ≤ contactTol), the contact forces push
+    (λ ≥ 0) and act only where the gap is closed (|λ_j (g_j − π1 g0_j)| ≤ contactTol·max λ)."""
     history = result.history
     scale = max(np.abs(history["forceX1"]).max(), np.abs(history["forceY1"]).max(), 1.0)
     assert history["forceBalance"].max() <= 1e-10 * scale, "the interface forces on the two bodies must cancel"
     assert history["gapMax"].max() <= result.params["contactTol"]
+    assert history["lambdaMin"].min() >= 0
+    assert history["complementarity"].max() <= result.params["contactTol"] * max(history["contactForce"].max(), 1.0)
 
 
 def segment_midpoints(line) -> np.ndarray:
@@ -136,6 +140,49 @@ def test_the_shear_load_is_held_by_the_glue_until_it_debonds(tmp_path):
     assert h["contactLength"].max() == 0, "the opening load never closes the interface"
 
 
+def test_the_rounded_punch_closes_its_gap_then_spreads_its_contact(tmp_path):
+    """The punch starts 0.02 above the block and its top moves down by 0.12 t: nothing touches
+    before t = 1/6 (no force, no closed length); after it the contact closes over the flat face
+    and spreads into the rounded corners, never shrinking, and the force grows. The stiff punch
+    does not damage; the block's damage is lowest under the face's ends (x = ±0.75), where the
+    rounded corners begin."""
+    result = coarse("punch", tmp_path, **{"body1.mesh.n": 30, "body2.mesh.n": 12, "time.N": 24,
+                                          "output.times": "final"})
+    h = result.history
+    apart = h["t"] < 0.02 / 0.12 - 1e-9
+    assert np.all(h["contactForce"][apart] == 0) and np.all(h["contactLength"][apart] == 0)
+    assert np.all(h["contactForce"][~apart] > 0)
+    assert np.all(np.diff(h["contactLength"][~apart]) >= 0) and np.all(np.diff(h["contactForce"][~apart]) > 0)
+    assert h["contactLength"][-1] > 1.5 + 0.1, "the contact spreads beyond the flat face"
+    assert h["zetaMin2"].min() == 1.0
+    block = result.fields("body1")
+    zeta = block.point_data["zeta"]
+    weakest = block.points[np.argmin(zeta), :2]
+    assert 0.6 < abs(weakest[0]) < 1.0 and weakest[1] > -0.3, f"damage peaks at {weakest}"
+    assert zeta.min() < 0.95
+
+
+def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):
+    """β⁰ = (x < 4.5): β stays 0 on the crack at every time (β₊ in both terms of its update); the
+    bonded part loses bonds from the crack tip on (its lowest β is at the tip at every output), and
+    the front moves left while the far end stays bonded."""
+    times = [0.5, 1.0, 1.5, 2.0]
+    result = coarse("precrack", tmp_path, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})
+    assert np.all(np.diff(result.history["betaMean"]) <= 0)
+    fronts = []
+    for time in times:
+        line = result.fields("contact", time)
+        x, beta = segment_midpoints(line), line.cell_data["beta"][0]
+        order = np.argsort(x)
+        x, beta = x[order], beta[order]
+        assert np.all(beta[x > 4.5] == 0), f"the crack must stay open at t = {time}"
+        bonded = x < 4.5
+        assert beta[bonded][-1] == beta[bonded].min() < 1, f"the tip must debond first (t = {time})"
+        assert beta[x < 1].min() > 0.99, f"the far end must stay bonded at t = {time}"
+        fronts.append(x[bonded & (beta < 0.5)].min() if np.any(bonded & (beta < 0.5)) else 4.5)
+    assert np.all(np.diff(fronts) <= 0) and fronts[-1] < 4.5 - 0.5, f"the front must move left: {fronts}"
+
+
 def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
     """`python -m orchestrate gallery` as a user runs it: every scene of docs/gallery.md, its
     images and its invariants."""
@@ -148,7 +195,9 @@ def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
         assert result.history["t"][-1] == pytest.approx(result.params["T"])
         for image in ("fields.png", "contact_line.png", "history.png"):
             assert (tmp_path / name / image).stat().st_size > 10_000
-    assert (tmp_path / "peel" / "beta_xt.png").exists()
+    assert (tmp_path / "peel" / "beta_xt.png").exists() and (tmp_path / "precrack" / "beta_xt.png").exists()
+    for image in ("pressure.png", "vonmises.png"):  # Hertz against the analytic solution
+        assert (tmp_path / "hertz" / image).stat().st_size > 10_000
 
 
 def test_the_polymer_pad_runs_stiff_materials_in_few_steps_to_its_target(tmp_path):

@@ -3,6 +3,7 @@
 a scene may not have, refused before the time loop with the body, the label and the quantity."""
 from __future__ import annotations
 
+import meshio
 import numpy as np
 import pytest
 
@@ -119,6 +120,52 @@ def test_a_contact_boundary_that_does_not_face_the_other_is_refused(tmp_path):
         "label = 1\n", "label = 3\n")
     message = refused(tmp_path, "away", pressed_block([0.0, 1.0, 0.0, 1.0], 6, 1, "-0.01*t"), base)
     assert "does not face body 1" in message and "label 1" in message
+
+
+def test_a_contact_boundary_of_two_labels_is_the_boundary_of_their_union(tmp_path):
+    """The punch's face (label 1) and rounded corners (label 4 with split = 1: the same mesh, other
+    tags) named together give, to the bit, what the one label of the whole curve gives."""
+    punch = REPO / "scenes" / "punch.toml"
+    coarse = {"output.images": False, "body1.mesh.n": 30, "body2.mesh.n": 12, "time.N": 24, "output.fields": ["contact", "state"]}
+    one = run(punch, tmp_path / "one", coarse)
+    two = run(punch, tmp_path / "two", {**coarse, "body2.mesh.parameters": {"split": 1}, "body2.mesh.contactLabel": [1, 4]})
+    for column in one.history:
+        if column != "stepSeconds":
+            assert np.array_equal(one.history[column], two.history[column]), column
+    a, b = final_state(one), final_state(two)
+    assert all(np.array_equal(a[name], b[name]) for name in ("u1", "u2", "zeta1", "s", "beta"))
+    assert one.history["contactLength"][-1] > 1.5, "the contact reaches the corners (label 4)"
+
+
+def test_a_traction_on_the_contact_boundary_acts_where_the_bodies_are_apart(tmp_path):
+    """Body 1's contact side (its bottom) pulled by the traction (0, −q), the body on rollers at its
+    top and left, body 2 far below (no contact): the elastic limit (the viscous response damped by
+    (1 + kE/η)⁻¹ ≈ 1/101 a step) is uniaxial tension, u = (−ν q x/E, −q (1 − y)/E), which P1 holds
+    exactly."""
+    q, E, nu = 10.0, 1000.0, 0.3
+    body1 = ("[body1.mesh]\nrectangle = [0.0, 1.0, 0.0, 1.0]\nn = 5\ncontactLabel = 1\n"
+             f"[body1.material]\nE = {E}\nnu = {nu}\nmu = 0.0\neta = 1.0\n"
+             "[body1.damage]\nlambdaD = 0.0\nlambdaU = 0.0\n"
+             '[[body1.boundary]]\ntype = "roller"\nlabel = 3\ncomponent = "y"\n'
+             '[[body1.boundary]]\ntype = "roller"\nlabel = 4\ncomponent = "x"\n'
+             f'[[body1.boundary]]\ntype = "traction"\nlabel = 1\nfy = "{-q}"\n')
+    result = run(scene(tmp_path, "pulled", body1, clamped_base([0.0, 1.0, -1.5, -0.5], 4), steps=10), tmp_path / "run")
+    assert np.all(result.history["contactForce"] == 0)
+    nodes = meshio.read(result.folder / "body1.msh").points
+    u = final_state(result)["u1"]
+    assert np.allclose(u[0::2], -nu * q * nodes[:, 0] / E, rtol=0, atol=1e-13)
+    assert np.allclose(u[1::2], -q * (1 - nodes[:, 1]) / E, rtol=0, atol=1e-13)
+
+
+def test_body_1_contact_labels_that_do_not_meet_end_to_end_are_refused(tmp_path):
+    """meshes/base.geo's label 5 is its top left and right of the middle (label 1): two pieces."""
+    base = ('[body1.mesh]\ngeo = "meshes/base.geo"\nn = 8\ncontactLabel = 5\n'
+            '[[body1.boundary]]\ntype = "clamped"\nlabel = 3\n')
+    block = pressed_block([-3.0, 3.0, 0.0, 1.0], 12, 1, "-0.01*t").replace("body1", "body2")
+    message = refused(tmp_path, "pieces", base, block)
+    assert "body 1's potential contact boundary (label 5) is not one segment" in message
+    whole = run(scene(tmp_path, "whole", base.replace("contactLabel = 5", "contactLabel = [1, 5]"), block), tmp_path / "whole")
+    assert whole.history["contactLength"][-1] == pytest.approx(6.0)
 
 
 HERTZ = REPO / "scenes" / "hertz.toml"

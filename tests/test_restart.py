@@ -104,14 +104,36 @@ def test_a_checkpoint_of_other_inputs_is_refused(tmp_path, flags, words):
         assert word in done.error_line
 
 
-def test_other_loads_are_refused_by_their_fingerprint(tmp_path):
+@pytest.mark.parametrize("change, words", [
+    (lambda text: text.replace("(-10*t)", "(-11*t)"), "other loads, boundary conditions or initial data"),
+    (lambda text: text + "macro initialBonding(x, y) ((x < 3.) ? 1. : 0.) //\n", "beta0 = 'expression:initialBonding'"),
+    (lambda text: text + "macro initialDamage2(x, y) (1. - 0.1*(y > -1.)) //\n", "zeta02 = 'expression:initialDamage2'"),
+], ids=["load", "beta0", "zeta0"])
+def test_other_loads_or_initial_data_are_refused(tmp_path, change, words):
     folder = tmp_path / "run"
     killed_driver(folder, 100)
-    scene = tmp_path / "heavier.idp"
-    scene.write_text((REPO / "edp" / "scenes" / "paper.idp").read_text().replace("(-10*t)", "(-11*t)"))
+    scene = tmp_path / "changed.idp"
+    scene.write_text(change((REPO / "edp" / "scenes" / "paper.idp").read_text()))
     done = run_script(MAIN, [*DRIVER, "-out", tmp_path / "other", "-restart", folder], defines={"SCENE": scene.name},
                       cwd=tmp_path)
-    assert done.returncode == 3 and "other loads or boundary conditions" in done.error_line
+    assert done.returncode == 3 and words in done.error_line, done.error_line
+
+
+def test_another_expression_of_the_initial_data_is_refused_by_the_fingerprint(tmp_path):
+    """Both runs give β⁰ by an expression (the same parameter value, 'expression:initialBonding'):
+    the values at the segments tell them apart."""
+    paper = (REPO / "edp" / "scenes" / "paper.idp").read_text()
+    (tmp_path / "cracked.idp").write_text(paper + "macro initialBonding(x, y) ((x < 3.) ? 1. : 0.) //\n")
+    (tmp_path / "longer.idp").write_text(paper + "macro initialBonding(x, y) ((x < 2.) ? 1. : 0.) //\n")
+    folder = tmp_path / "run"
+    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)], {"SCENE": "cracked.idp"}),
+                               cwd=tmp_path, env=freefem_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    while process.poll() is None and rows(folder) < 100:
+        time.sleep(0.005)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "longer.idp"}, cwd=tmp_path)
+    assert done.returncode == 3 and "initial data (their fingerprint differs)" in done.error_line, done.error_line
 
 
 def test_a_folder_without_a_whole_checkpoint_is_refused(tmp_path):
@@ -226,4 +248,4 @@ def test_loads_are_told_apart_from_prescribed_displacements_in_the_fingerprint(t
     process.send_signal(signal.SIGKILL)
     process.wait()
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "heavier.idp"}, cwd=tmp_path)
-    assert done.returncode == 3 and "other loads or boundary conditions" in done.error_line
+    assert done.returncode == 3 and "other loads, boundary conditions or initial data" in done.error_line

@@ -125,7 +125,7 @@ def test_labels_are_refused_exactly_when_one_is_missing(present, named):
     body = scene.body1.model_copy(update={"boundary": [b.model_copy(update={"label": label})
                                                        for b, label in zip(scene.body1.boundary * 5, named)]})
     info = MeshInfo(10, 10, {label: 1 for label in present})
-    labels = {body.mesh.contactLabel, *named[:len(body.boundary)]}
+    labels = {*body.mesh.contactLabel, *named[:len(body.boundary)]}
     if labels <= present:
         require_labels(body, 1, info)
     else:
