@@ -22,7 +22,7 @@ class Parameter:
     """One row of the table. A body parameter stands for name1 and name2."""
     name: str
     scope: str  # "run" or "body"
-    type: str  # real, int, flag, choice, text
+    type: str  # real, int, flag, choice, text, labels
     default: str
     range: str
     unit: str
@@ -38,6 +38,8 @@ class Parameter:
             return int(text)
         if self.type == "flag":
             return text == "1"
+        if self.type == "labels":
+            return [int(label) for label in text.split(",")]
         return text
 
     @property
@@ -47,7 +49,7 @@ class Parameter:
     @property
     def bounds(self) -> dict[str, float]:
         """pydantic limits (gt, ge, lt, le) of an interval range; none for an infinite bound."""
-        if self.type not in ("real", "int") or self.range == "-":
+        if self.type not in ("real", "int", "labels") or self.range == "-":
             return {}
         low, high = (part.strip() for part in self.range[1:-1].split(","))
         limits = {}
@@ -58,7 +60,7 @@ class Parameter:
         return limits
 
     def _number(self, text: str) -> float:
-        return int(text) if self.type == "int" else float(text)
+        return float(text) if self.type == "real" else int(text)
 
     def driver_names(self) -> list[str]:
         return [f"{self.name}{i}" for i in BODIES] if self.scope == "body" else [self.name]

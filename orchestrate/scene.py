@@ -76,7 +76,7 @@ def initial_value(name: str):
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]  # a number, never a boolean or a text
 MESHES = REPO / "meshes"
 IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
-LABEL = {"ge": 0, "le": 2 ** 30}  # a boundary label: the range contactLabel's meaning gives (parameters.md)
+LABEL = PARAMETERS["contactLabel"].bounds  # the range of a boundary label (parameters.md)
 
 
 def _contact_labels(value):
@@ -87,7 +87,8 @@ def _contact_labels(value):
         raise ValueError("give a boundary label or a list of them, like 3 or [1, 5]")
     for label in labels:
         if not isinstance(label, int) or isinstance(label, bool) or not LABEL["ge"] <= label <= LABEL["le"]:
-            raise ValueError(f"{label!r} is not a boundary label (allowed: integers in [0, {LABEL['le']}], one or a list)")
+            raise ValueError(f"{label!r} is not a boundary label (allowed: integers in "
+                             f"{PARAMETERS['contactLabel'].range}, one or a list)")
     if len(set(labels)) < len(labels):
         raise ValueError("a label is named twice")
     return labels
@@ -110,8 +111,7 @@ class Mesh(Strict):
     structured: bool | None = Field(None, strict=True)
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = {}
-    contactLabel: ContactLabels = Field([int(label) for label in PARAMETERS["contactLabel"].default.split(",")],
-                                        description=PARAMETERS["contactLabel"].meaning)
+    contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
 
     @model_validator(mode="after")
     def one_source(self):
@@ -245,7 +245,8 @@ class Body(Strict):
                 if prescribed.get(condition.label) == {"x", "y"}:
                     raise ValueError(f"label {condition.label}: a traction on a boundary whose displacement is prescribed")
         if not prescribed:
-            raise ValueError("no clamped, roller or displacement condition: the body would float (MODEL.md §1)")
+            raise ValueError("no clamped, roller or displacement condition: nothing would hold the body's sliding along "
+                             "Γ_C (the contact is frictionless; docs/model-choices.md, Floating bodies)")
         return self
 
 
@@ -535,7 +536,7 @@ def to_freefem_scene(scene: Scene) -> str:
         code = f'"{value}"' if isinstance(value, str) else _number(value)
         lines.append(f'setParam("{name}", {code});')
     # Initial data by position (docs/model-choices.md, "Initial data"): a macro of x, y that the
-    # driver evaluates at the nodes of ζ and at the segment midpoints of β.
+    # driver evaluates at the nodes of ζ and averages on the segments of β.
     initial = [(f"initialDamage{i}", body.damage.zeta0) for i, body in ((1, scene.body1), (2, scene.body2))]
     for name, value in initial + [("initialBonding", scene.glue.beta0)]:
         if isinstance(value, str):

@@ -38,3 +38,14 @@ def test_skipped_and_full_paths_give_the_same_results(tmp_path, scene, args, ski
         np.testing.assert_allclose(skipped.history[column], full.history[column], rtol=1e-12, atol=1e-14,
                                    err_msg=column)
     assert np.all(skipped.history[skipped_work] == 0) and np.all(full.history[skipped_work] >= 1)
+
+
+def test_a_run_without_bonds_or_rebonding_runs_its_idle_glue_too(tmp_path):
+    """β⁰ = 0 and γ_r = 0: β stays 0, the glue is idle. With skipIdle = 0 its forces and its bound
+    are computed anyway; the bound's power iteration has no glue to measure (once a division by 0)."""
+    args = ["-beta0", 0, "-gammaR", 0]
+    skipped = solve_ok(tmp_path / "skipped", *args)
+    full = solve_ok(tmp_path / "full", *args, "-skipIdle", 0)
+    for column in SAME:
+        np.testing.assert_allclose(skipped.history[column], full.history[column], rtol=1e-12, atol=1e-14, err_msg=column)
+    assert np.all(full.history["betaMax"] == 0)

@@ -43,6 +43,14 @@ def segment_midpoints(line) -> np.ndarray:
     return 0.5 * (line.points[ends[:, 0], 0] + line.points[ends[:, 1], 0])
 
 
+def bonding_along_x(result: Result, time: float) -> tuple[np.ndarray, np.ndarray]:
+    """The segment midpoints' x on Γ_C and their β at an output time, in x order."""
+    line = result.fields("contact", time)
+    x, beta = segment_midpoints(line), line.cell_data["beta"][0]
+    order = np.argsort(x)
+    return x[order], beta[order]
+
+
 def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
     """u = −0.01 t (x, y): ε(u) = −0.01 t I, isotropic, so a frictionless interface of any
     slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (MODEL.md §2), ζ uniform:
@@ -100,10 +108,7 @@ def test_the_peel_front_travels_from_the_lifted_end(tmp_path):
     assert np.all(np.diff(result.history["betaMean"]) <= 0)
     fronts = []
     for time in times:
-        line = result.fields("contact", time)
-        x, beta = segment_midpoints(line), line.cell_data["beta"][0]
-        order = np.argsort(x)
-        x, beta = x[order], beta[order]
+        x, beta = bonding_along_x(result, time)
         assert beta[:10].min() > 0.99, f"the far end must stay bonded at t = {time}"
         fronts.append(x[beta < 0.5].min())
         if time >= 1.0:
@@ -171,10 +176,7 @@ def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):
     assert np.all(np.diff(result.history["betaMean"]) <= 0)
     fronts = []
     for time in times:
-        line = result.fields("contact", time)
-        x, beta = segment_midpoints(line), line.cell_data["beta"][0]
-        order = np.argsort(x)
-        x, beta = x[order], beta[order]
+        x, beta = bonding_along_x(result, time)
         assert np.all(beta[x > 4.5] == 0), f"the crack must stay open at t = {time}"
         bonded = x < 4.5
         assert beta[bonded][-1] == beta[bonded].min() < 1, f"the tip must debond first (t = {time})"

@@ -212,9 +212,13 @@ def test_an_arc_that_folds_over_its_projection_is_refused(tmp_path):
 
 
 def test_the_hertz_study_writes_its_ladder(tmp_path):
-    """`study hertz` at a small size: both cases, the mesh distances to the finest level, files."""
+    """`study hertz` at a small size: the three cases, the mesh distances to the finest level, the
+    force-controlled runs at the force of the displacement-controlled ones, files."""
     rows = hertz(tmp_path, levels=2, coarsest=4)
-    assert [(row["case"], row["n"]) for row in rows] == [("same", 4), ("same", 8), ("dissimilar", 4), ("dissimilar", 8)]
+    assert [(row["case"], row["n"]) for row in rows] == [("same", 4), ("same", 8), ("dissimilar", 4), ("dissimilar", 8),
+                                                         ("force", 4), ("force", 8)]
     assert all(0 < row["errorA"] < 0.05 and 0 < row["errorP0"] < 0.05 for row in rows)
+    for pressed, loaded in zip(rows[:2], rows[4:]):
+        assert loaded["F"] == pytest.approx(pressed["F"], rel=1e-12) and loaded["approach"] == pytest.approx(0.2, rel=0.05)
     assert "meshA" in rows[0] and "meshA" not in rows[1]
     assert {path.name for path in tmp_path.iterdir()} >= {"README.md", "hertz.csv", "pressure.png", "vonmises.png"}

@@ -1,7 +1,7 @@
 """Initial data by position (docs/model-choices.md "Initial data"): ζ⁰ per body as an expression of
-x, y at the nodes, β⁰ as an expression of the position on Γ_C at the segment midpoints, checked
-against the expression evaluated independently (orchestrate.expr.evaluate) where the model keeps
-them exactly, and refused with the position when a value leaves [0, 1]."""
+x, y at the nodes, β⁰ as an expression of the position on Γ_C, its means on the segments, checked
+against the expression evaluated independently (orchestrate.expr.evaluate) or integrated by hand
+where the model keeps them exactly, and refused with the position when a value leaves [0, 1]."""
 from __future__ import annotations
 
 import meshio
@@ -16,7 +16,7 @@ from orchestrate.scene import SceneError, Scene
 from tests.conftest import solve
 
 ZETA0 = "1 - 0.6*exp(-((x - 0.3)^2 + (y - 0.4)^2)/0.05)"
-BETA0 = "(x < 0.37) + 0.5*(x >= 0.37)*(x < 0.71)"
+BETA0 = "0.5 + 0.4*sin(3*x)"
 
 
 def frozen_scene(folder, zeta0: str = ZETA0, beta0: str = BETA0, load: str = "0"):
@@ -73,29 +73,30 @@ def values(text: str, points: np.ndarray) -> np.ndarray:
 
 
 def test_initial_damage_and_bonding_are_the_expressions_at_their_nodes(tmp_path):
-    """In double precision: the state file's ζ (node order of the mesh file) and β (segments of θ1_h,
-    which here is body 1's bottom, x = s, y = 0)."""
+    """In double precision: the state file's ζ (node order of the mesh file), the expression at the
+    nodes, and β (segments of θ1_h, which here is body 1's bottom, x = s, y = 0), its exact means."""
     result = run(frozen_scene(tmp_path), tmp_path / "run")
     state = read_state(result.folder / "state_0004.txt")
     nodes = meshio.read(result.folder / "body1.msh").points
     assert np.allclose(state["zeta1"], values(ZETA0, nodes), rtol=0, atol=1e-14)
     assert state["zeta1"].min() < 0.5  # the pre-damaged zone is there
-    middle = 0.5 * (state["s"][:-1] + state["s"][1:])
-    assert np.array_equal(state["beta"], values(BETA0, np.column_stack([middle, 0 * middle])))
-    assert set(state["beta"]) == {0.0, 0.5, 1.0}
+    a, b = state["s"][:-1], state["s"][1:]
+    mean = 0.5 + 0.4 * (np.cos(3 * a) - np.cos(3 * b)) / (3 * (b - a))  # of BETA0 on each segment
+    assert np.allclose(state["beta"], mean, rtol=0, atol=1e-10)
     assert result.params["beta0"] == "expression:initialBonding"
     assert result.params["zeta01"] == "expression:initialDamage1" and result.params["zeta02"] == 1
 
 
 def test_a_cracked_part_of_the_interface_stays_unbonded_under_load(tmp_path):
     """β's update carries β₊ in both terms: where β⁰ = 0 it stays 0 whatever the gap does, while
-    the bonded part loses bonds when the body is pulled off (so the load did reach the glue)."""
-    result = run(frozen_scene(tmp_path, zeta0="1", beta0="x > 0.5", load="0.05*t"), tmp_path / "run")
+    the bonded part loses bonds when the body is pulled off (so the load did reach the glue). The
+    crack's tip is the node x = 3/7 of body 1's bottom (n = 7), so β⁰ is 0 or 1 on every segment."""
+    result = run(frozen_scene(tmp_path, zeta0="1", beta0="x > 0.4285714", load="0.05*t"), tmp_path / "run")
     line = result.fields("contact")
     midpoints = line.points[line.cells_dict["line"]].mean(axis=1)[:, 0]
     beta = line.cell_data_dict["beta"]["line"]
-    assert np.all(beta[midpoints < 0.5] == 0)
-    assert 0 < beta[midpoints > 0.5].max() < 1
+    assert np.all(beta[midpoints < 3 / 7] == 0)
+    assert 0 < beta[midpoints > 3 / 7].max() < 1
 
 
 @pytest.mark.parametrize("override, words", [

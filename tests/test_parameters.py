@@ -29,7 +29,10 @@ images = false
 
 
 def expected(parameter):
-    """The table's default as params_used.json writes it (flags and integers as numbers)."""
+    """The table's default as params_used.json writes it (flags and integers as numbers, labels as
+    the list's text)."""
+    if parameter.type == "labels":
+        return parameter.default
     value = parameter.value()
     return int(value) if isinstance(value, bool) else value
 
@@ -68,7 +71,7 @@ def probes(parameter):
     bounds = parameter.bounds
     for key, bound in bounds.items():
         outward = -1 if key in ("ge", "gt") else 1
-        step = 1 if parameter.type == "int" else max(abs(bound), 1.0) * 1e-9
+        step = 1 if parameter.type in ("int", "labels") else max(abs(bound), 1.0) * 1e-9
         yield bound, key in ("ge", "le")
         yield bound + outward * step, False
         if key in ("gt", "lt"):
@@ -82,7 +85,7 @@ CASES = [(parameter.name, value, inside) for parameter in PARAMETERS.values() fo
 def test_the_driver_and_the_scene_take_the_same_range(name, value, inside):
     parameter = PARAMETERS[name]
     flag = parameter.driver_names()[0]
-    text = str(value) if parameter.type == "int" else repr(float(value))
+    text = str(value) if parameter.type in ("int", "labels") else repr(float(value))
     done = run_script(CHECK, [f"-{flag}", text])
     assert (done.returncode == 0) == inside, (flag, text, done.error_line)
     if not inside:

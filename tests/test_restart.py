@@ -41,9 +41,12 @@ def same_results(first: Path, second: Path) -> None:
     assert history[0] == history[1]
 
 
-def killed_driver(folder: Path, at_rows: int, extra: tuple = ()) -> None:
-    """The driver run into `folder`, killed (SIGKILL) once its history has `at_rows` rows."""
-    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, *extra, "-out", str(folder)]), cwd=REPO, env=freefem_env(),
+def killed_driver(folder: Path, at_rows: int, extra: tuple = (), scene: Path | None = None) -> None:
+    """The driver run into `folder` (with the scene file `scene`, from its folder), killed (SIGKILL)
+    once its history has `at_rows` rows."""
+    defines = {"SCENE": scene.name} if scene else None
+    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, *extra, "-out", str(folder)], defines),
+                               cwd=scene.parent if scene else REPO, env=freefem_env(),
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while process.poll() is None and rows(folder) < at_rows and time.time() < deadline:
@@ -126,12 +129,7 @@ def test_another_expression_of_the_initial_data_is_refused_by_the_fingerprint(tm
     (tmp_path / "cracked.idp").write_text(paper + "macro initialBonding(x, y) ((x < 3.) ? 1. : 0.) //\n")
     (tmp_path / "longer.idp").write_text(paper + "macro initialBonding(x, y) ((x < 2.) ? 1. : 0.) //\n")
     folder = tmp_path / "run"
-    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)], {"SCENE": "cracked.idp"}),
-                               cwd=tmp_path, env=freefem_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while process.poll() is None and rows(folder) < 100:
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
+    killed_driver(folder, 100, scene=tmp_path / "cracked.idp")
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "longer.idp"}, cwd=tmp_path)
     assert done.returncode == 3 and "initial data (their fingerprint differs)" in done.error_line, done.error_line
 
@@ -241,11 +239,6 @@ def test_loads_are_told_apart_from_prescribed_displacements_in_the_fingerprint(t
     (tmp_path / "moving.idp").write_text(moving)
     (tmp_path / "heavier.idp").write_text(moving.replace("(-10*t)", "(-11*t)"))
     folder = tmp_path / "run"
-    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, "-out", str(folder)], {"SCENE": "moving.idp"}),
-                               cwd=tmp_path, env=freefem_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while process.poll() is None and rows(folder) < 100:
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
+    killed_driver(folder, 100, scene=tmp_path / "moving.idp")
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "heavier.idp"}, cwd=tmp_path)
     assert done.returncode == 3 and "other loads, boundary conditions or initial data" in done.error_line

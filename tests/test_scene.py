@@ -85,12 +85,12 @@ def test_a_bad_scene_is_refused_with_a_clear_message(tmp_path, old, new, words):
         assert word in str(error.value), (word, str(error.value))
 
 
-def test_a_body_without_dirichlet_condition_would_float(tmp_path):
+def test_a_body_without_dirichlet_condition_is_refused_its_sliding_free(tmp_path):
     text = PAPER.replace('[[body2.boundary]]\ntype = "clamped"\nlabel = 3\n\n[[body2.boundary]]\ntype = "clamped"\nlabel = 4',
                          '[[body2.boundary]]\ntype = "traction"\nlabel = 2\nfx = "1"')
     path = tmp_path / "float.toml"
     path.write_text(text)
-    with pytest.raises(SceneError, match="body2.*would float"):
+    with pytest.raises(SceneError, match="body2.*nothing would hold the body's sliding along Γ_C"):
         Scene.load(path)
 
 

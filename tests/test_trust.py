@@ -109,6 +109,7 @@ def test_a_checkout_whose_path_has_hash_semicolon_quotes_and_spaces_runs(tmp_pat
     ("body1.boundary.0.label", 42, ["body1.boundary.0.label = 42", "1, 2, 3, 4, 5"]),
     ("body2.boundary.0.label", 7, ["body2.boundary.0.label = 7", "1, 2, 3, 4"]),
     ("body2.mesh.contactLabel", 9, ["body2.mesh.contactLabel = 9"]),
+    ("body2.mesh.contactLabel", [3, 9], ["body2.mesh.contactLabel = [3, 9]", "no boundary label 9"]),
 ])
 def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(tmp_path, key, value, words):
     with pytest.raises(SceneError) as error:
