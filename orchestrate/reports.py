@@ -57,7 +57,7 @@ def convergence_report(table: list[dict], observed: dict[str, dict], command: st
              "an error of its own, so rates against the reference can come out high at the fine end; distances "
              "between successive levels decay at the true rate. Both are given, over the finest three levels "
              "measured. Theorem 2.1 of the seed predicts at least h^{3/4} in space and k in time for the paper's "
-             "scheme; the orders of semi-implicit (1) and bdf2 (2) are expected (MODEL.md §9), not proved. A level "
+             "scheme; the orders of semi-implicit (1) and bdf2 (2) are expected (docs/model.md §9), not proved. A level "
              "that did not run says why (refused: its step exceeds a bound of an explicit term; stopped: it broke "
              "an invariant).", ""]
     for ladder in studied:
@@ -149,7 +149,7 @@ def elastic_section(elastic: list[dict]) -> list[str]:
         return []
     lines = ["## Elastic term (euler)", "",
              "The paper's scene on coarse meshes (body 1 with 6 elements per side, body 2 with 8) with E varied "
-             "in both bodies. Predicted: k* = 2/ρ, ρ = max(bG/η, (2aG + bG)/(2μ + η)) (MODEL.md §7, "
+             "in both bodies. Predicted: k* = 2/ρ, ρ = max(bG/η, (2aG + bG)/(2μ + η)) (docs/model.md §7, "
              "edp/lib/stability.idp). With damage on, ζ < 1 lowers the effective ρ, so an unstable step can be "
              "masked; λ_u = 0 keeps ζ = 1. The scene's tangential glue (p_τ = 1) adds its own bound 2/ρ_τ; "
              "the true threshold lies between 2/(ρ + ρ_τ) and min(2/ρ, 2/ρ_τ) (docs/model-choices.md, "

@@ -528,7 +528,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted run of the same inputs from its last checkpoint (in <out>.partial)")
     parser.add_argument("--allow-unstable", action="store_true",
-                        help="run even when the time step exceeds an explicit stability bound (MODEL.md §7)")
+                        help="run even when the time step exceeds an explicit stability bound (docs/model.md §7)")
 
 
 def command(options) -> int:

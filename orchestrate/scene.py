@@ -105,12 +105,16 @@ class Mesh(Strict):
     """A gmsh source in meshes/ with its size parameter n (elements per side) and other
     DefineConstant values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top,
     4 left). A .geo file is gmsh code (it can run commands), so only the project's own are used."""
-    geo: str | None = None
-    rectangle: tuple[Real, Real, Real, Real] | None = Field(default=None, description="x0, x1, y0, y1")
-    n: int = Field(strict=True, ge=1, le=4096)
-    structured: bool | None = Field(None, strict=True)
+    geo: str | None = Field(None, description="a gmsh source in meshes/ (a path from the repository), or give rectangle")
+    rectangle: tuple[Real, Real, Real, Real] | None = Field(
+        default=None, description="[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
+    n: int = Field(strict=True, ge=1, le=4096, description="the mesh size parameter of the .geo (elements per side "
+                                                           "or per unit length: its header says)")
+    structured: bool | None = Field(None, strict=True, description="a structured (transfinite) mesh, where the .geo "
+                                                                    "offers one")
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
-    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = {}
+    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = Field(
+        {}, description="other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
     contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
 
     @model_validator(mode="after")
@@ -194,29 +198,32 @@ class BodyDamage(Strict):
     zeta0: initial_value("zeta0")
 
 
+LABEL_FIELD = {"strict": True, **LABEL, "description": "the boundary label it acts on"}
+
+
 class Clamped(Strict):
-    type: Literal["clamped"]
-    label: int = Field(strict=True, **LABEL)
+    type: Literal["clamped"] = Field(description="u = 0 on the label")
+    label: int = Field(**LABEL_FIELD)
 
 
 class Roller(Strict):
-    type: Literal["roller"]
-    label: int = Field(strict=True, **LABEL)
-    component: Literal["x", "y"]
+    type: Literal["roller"] = Field(description="one component of u is 0 on the label, the other free")
+    label: int = Field(**LABEL_FIELD)
+    component: Literal["x", "y"] = Field(description="the component held")
 
 
 class Displacement(Strict):
-    type: Literal["displacement"]
-    label: int = Field(strict=True, **LABEL)
-    component: Literal["x", "y"]
-    value: Expression
+    type: Literal["displacement"] = Field(description="one component of u prescribed on the label")
+    label: int = Field(**LABEL_FIELD)
+    component: Literal["x", "y"] = Field(description="the component prescribed")
+    value: Expression = Field(description="its value, an expression of x, y, t [m]")
 
 
 class Traction(Strict):
-    type: Literal["traction"]
-    label: int = Field(strict=True, **LABEL)
-    fx: Expression = "0"
-    fy: Expression = "0"
+    type: Literal["traction"] = Field(description="a traction on the label")
+    label: int = Field(**LABEL_FIELD)
+    fx: Expression = Field("0", description="its x component, an expression of x, y, t [N/m²]")
+    fy: Expression = Field("0", description="its y component, an expression of x, y, t [N/m²]")
 
 
 Boundary = Annotated[Union[Clamped, Roller, Displacement, Traction], Field(discriminator="type")]
@@ -226,8 +233,9 @@ class Body(Strict):
     mesh: Mesh
     material: Material = Material()
     damage: BodyDamage = BodyDamage()
-    boundary: list[Boundary] = Field(min_length=1)
-    volume_force: tuple[Expression, Expression] = ("0", "0")
+    boundary: list[Boundary] = Field(min_length=1, description="the boundary conditions, a list of tables "
+                                                              "[[bodyN.boundary]] (types below)")
+    volume_force: tuple[Expression, Expression] = Field(("0", "0"), description="[fx, fy], expressions of x, y, t [N/m³]")
 
     @model_validator(mode="after")
     def consistent_boundary(self):
@@ -309,9 +317,12 @@ class Output(Strict):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
     "state" (the unknowns, for error norms between runs)."""
-    times: Literal["final", "all", "none"] | Annotated[list[Real], Field(min_length=1)] = PARAMETERS["outTimes"].default
-    fields: list[Literal["bodies", "stress", "contact", "state"]] = PARAMETERS["outFields"].default.split(",")
-    images: bool = Field(True, strict=True)
+    times: Literal["final", "all", "none"] | Annotated[list[Real], Field(min_length=1)] = Field(
+        PARAMETERS["outTimes"].default, description=PARAMETERS["outTimes"].meaning + " [s]")
+    fields: list[Literal["bodies", "stress", "contact", "state"]] = Field(
+        PARAMETERS["outFields"].default.split(","), description=PARAMETERS["outFields"].meaning)
+    images: bool = Field(True, strict=True, description="render fields.png, contact_line.png, history.png "
+                                                        "(and beta_xt.png) after the run")
     units: Literal["SI", "mm-N-s"] = Field("SI", description="what the images label the numbers with: SI (m, N, "
                                            "N/m², s) or mm-N-s (mm, N, N/mm² = MPa, s); the solver needs none")
     checkpointEvery: int = field("checkpointEvery")
@@ -319,7 +330,7 @@ class Output(Strict):
 
 
 class Scene(Strict):
-    title: str = Field("", max_length=500)
+    title: str = Field("", max_length=500, description="what the scene is, for its files and images")
     time: Time = Time()
     body1: Body
     body2: Body

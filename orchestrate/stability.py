@@ -1,6 +1,6 @@
 """Stability study: python -m orchestrate study stability [SCENE].
 
-The explicit terms bound the time step (MODEL.md §7): the elastic k* = 2/ρ and, with tangential
+The explicit terms bound the time step (docs/model.md §7): the elastic k* = 2/ρ and, with tangential
 glue, 2/ρ_τ. For several data the bound the driver predicts (its run facts) is set against the
 threshold observed by bisection on N, over a horizon where the loads are held, so a stable run
 only creeps and an unstable one grows or is stopped by the driver's growth and chatter checks.

@@ -4,7 +4,7 @@ The upper block (body 1, (0,2)×(0,1)) is pushed down through its top by 0.05·t
 lower block (body 2, (0,2)×(−1,0)); rollers elsewhere, no glue, non-matching unstructured meshes.
 The exact discrete solution is then uniform in each body: σxx = σxy = 0, σyy = −p, the contact
 closed everywhere with the pressure p. A P1 mortar discretization must reproduce it to round-off
-(patch test), and its history must follow the scalar recursion of the scheme (MODEL.md §6), which
+(patch test), and its history must follow the scalar recursion of the scheme (docs/model.md §6), which
 `creep_recursion` computes here from the model's equations alone.
 """
 from dataclasses import dataclass
@@ -33,7 +33,7 @@ class Body:
 
     @property
     def lame(self):
-        """(a, b) of (Gτ) = a tr(τ) I + b τ (MODEL.md §2)."""
+        """(a, b) of (Gτ) = a tr(τ) I + b τ (docs/model.md §2)."""
         a = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu)) if self.plane_strain \
             else self.E * self.nu / (1 - self.nu ** 2)
         return a, self.E / (1 + self.nu)

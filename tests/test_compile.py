@@ -38,7 +38,7 @@ def test_libraries_do_nothing_when_included(tmp_path):
 
 
 def test_the_driver_declares_no_state_and_its_loop_is_the_scheme():
-    """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is MODEL.md §6's steps."""
+    """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is docs/model.md §6's steps."""
     text = (REPO / "edp" / "main.edp").read_text()
     assert "real[int]" not in text and "Vh1" not in text
     loop = text[text.index("for (int n = firstStep; n <= nSteps; n++) {"):]

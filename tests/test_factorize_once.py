@@ -1,4 +1,4 @@
-"""Matrices that do not change are assembled and factorized once per run (MODEL.md §6): the
+"""Matrices that do not change are assembled and factorized once per run (docs/model.md §6): the
 number of factorizations FreeFEM reports does not grow with the number of steps."""
 import pytest
 

@@ -53,9 +53,9 @@ def bonding_along_x(result: Result, time: float) -> tuple[np.ndarray, np.ndarray
 
 def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
     """u = −0.01 t (x, y): ε(u) = −0.01 t I, isotropic, so a frictionless interface of any
-    slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (MODEL.md §2), ζ uniform:
+    slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (docs/model.md §2), ζ uniform:
     σⁿ = −(2μ + η)·0.01 − ζⁿ E/(1 − ν)·0.01 tₙ in every triangle; the contact pressure balances
-    step n's equation, with ζⁿ⁻¹ and uⁿ⁻¹ in the explicit term (MODEL.md §6)."""
+    step n's equation, with ζⁿ⁻¹ and uⁿ⁻¹ in the explicit term (docs/model.md §6)."""
     result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final"})
     p, h = result.params, result.history
     E, nu, mu, eta, T, N = p["E1"], p["nu1"], p["mu1"], p["eta1"], p["T"], p["N"]
@@ -78,7 +78,7 @@ def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
 
 def test_the_tilted_patch_in_plane_strain_has_its_out_of_plane_stress(tmp_path):
     """The same uniform compression ε = e I, e = −0.01 t, in plane strain (ε33 = 0): with
-    λ = Eν/((1+ν)(1−2ν)) and 2G = E/(1+ν) (MODEL.md §2), σ11 = σ22 = (2μ + η)ė + ζ(2λ + 2G)e and
+    λ = Eν/((1+ν)(1−2ν)) and 2G = E/(1+ν) (docs/model.md §2), σ11 = σ22 = (2μ + η)ė + ζ(2λ + 2G)e and
     σ33 = 2μė + 2ζλe, so the von Mises stress of the 3D state is |σ11 − σ33| = |ηė + 2Gζe|:
     the out-of-plane stress enters it, and run.json says the bodies are in plane strain."""
     strain = {f"body{b}.material.planeStrain": True for b in (1, 2)}
@@ -101,7 +101,7 @@ def test_the_tilted_patch_in_plane_strain_has_its_out_of_plane_stress(tmp_path):
 
 
 def test_the_peel_front_travels_from_the_lifted_end(tmp_path):
-    """No rebonding (γ_r = 0), so β only falls (β update of MODEL.md §6); the lifted right end
+    """No rebonding (γ_r = 0), so β only falls (β update of docs/model.md §6); the lifted right end
     debonds first and the front (β = ½) moves left while the far end stays bonded."""
     times = [0.5, 1.0, 1.5, 2.0]
     result = coarse("peel", tmp_path, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})

@@ -1,4 +1,4 @@
-"""Contact boundaries of different extents and initial gaps (MODEL.md §10, docs/model-choices.md
+"""Contact boundaries of different extents and initial gaps (docs/model.md §10, docs/model-choices.md
 "Contact geometry"), each against an exact property of the discrete problem, and the geometry
 a scene may not have, refused before the time loop with the body, the label and the quantity."""
 from __future__ import annotations
@@ -75,7 +75,7 @@ def test_an_initial_gap_is_a_translation_of_the_closed_problem(tmp_path):
 
 def test_a_short_block_on_a_long_base_is_in_contact_on_its_own_extent(tmp_path):
     """A block whose ends fall inside the base's trace segments: θ1_h is the base's trace on the
-    block's extent, with a node at each end (MODEL.md §10). π1 reproduces constants there (body
+    block's extent, with a node at each end (docs/model.md §10). π1 reproduces constants there (body
     2's hats sum to 1 on Γ_C), so the contact forces on the two bodies cancel to round-off; the
     closed length is the block's width, and no node outside it carries a force."""
     base = ("[body1.mesh]\nrectangle = [-3.0, 3.0, -2.0, 0.0]\nn = 24\ncontactLabel = 3\n"

@@ -115,7 +115,7 @@ def test_a_scene_in_si_units_with_millimetre_elements_runs_as_in_millimetres(tmp
     pascals has 5e-9 m² triangles. Pressed onto its block, it runs, and gives the pad in
     millimetres and megapascals scaled: u by 1e-3, so ‖u‖_V (unit-free strains over an area scaled
     by 1e-6) by 1e-3, the contact force per unit thickness (MPa·mm = kN/m) by 1e3. Neither damage
-    nor glue here: MODEL.md's R truncates ε·ε by the glue's length L, and γ_ν is both a stiffness
+    nor glue here: docs/model.md's R truncates ε·ε by the glue's length L, and γ_ν is both a stiffness
     and a debonding rate, so neither is unit-free."""
     from orchestrate import run
 

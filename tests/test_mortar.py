@@ -1,4 +1,4 @@
-"""The mortar projection π1 (MODEL.md §6) against exact facts of L² projections."""
+"""The mortar projection π1 (docs/model.md §6) against exact facts of L² projections."""
 import pytest
 
 from conftest import gmsh_mesh

@@ -1,4 +1,4 @@
-"""The paper's scene (MODEL.md §8) at the default, coarse resolution (h1 = 0.25, h2 = 0.1875,
+"""The paper's scene (docs/model.md §8) at the default, coarse resolution (h1 = 0.25, h2 = 0.1875,
 N = 40): it runs to T with every invariant holding and the contact closed on part of Γ_C and
 open, with the glue pulling, on the rest."""
 import numpy as np

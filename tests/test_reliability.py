@@ -100,7 +100,7 @@ def rectangle(tmp_path, name, **numbers):
 
 
 def test_contact_traces_of_different_extents_meet_on_their_overlap(tmp_path):
-    """Once refused as "not the same segment" (MODEL.md §10 allows it): Γ_C is the overlap, body 1's
+    """Once refused as "not the same segment" (docs/model.md §10 allows it): Γ_C is the overlap, body 1's
     whole trace [0, 2] here, since body 2's [0, 3] covers it."""
     upper = rectangle(tmp_path, "upper", x1=2, y0=0, y1=1, n=4)
     lower = rectangle(tmp_path, "lower", x1=3, y0=-1, y1=0, n=6)

@@ -1,4 +1,4 @@
-"""The time schemes (-scheme euler | semi-implicit | bdf2, MODEL.md §9) against exact solutions:
+"""The time schemes (-scheme euler | semi-implicit | bdf2, docs/model.md §9) against exact solutions:
 uniform creep of two stacked blocks against the continuous Kelvin–Voigt solution (orders 1, 1 and
 2), a manufactured damage solution with the obstacle inactive (bdf2: order 2), the time order of
 ‖u(T)‖_V on the paper's scene, and each scheme's stability rules."""

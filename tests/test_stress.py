@@ -1,6 +1,6 @@
 """Stress tests (coarse): every run ends with all invariants held and every loop converged, or,
 where the input is truly unstable, with the clear error of the core issue; the explicit-step
-bound k* of MODEL.md §7 is enforced."""
+bound k* of docs/model.md §7 is enforced."""
 import re
 
 import numpy as np
@@ -35,7 +35,7 @@ def test_loads_times_ten_and_damage_reaching_its_floor(tmp_path):
     assert_invariants(result)
     h = result.history
     assert max(h["zetaBelowMin1"].max(), h["zetaBelowMin2"].max()) > 0, "damage should reach zeta_min somewhere"
-    assert "explicit damage source is unstable" in done.stdout  # the bound of MODEL.md §7 is reported
+    assert "explicit damage source is unstable" in done.stdout  # the bound of docs/model.md §7 is reported
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_long_horizon(tmp_path):
 
 
 def test_a_step_above_the_explicit_bound_is_refused_with_the_smallest_stable_n(tmp_path):
-    # Paper data: rho = (E/(1+nu))/eta = 38.46, k* = 0.052 (MODEL.md §7)
+    # Paper data: rho = (E/(1+nu))/eta = 38.46, k* = 0.052 (docs/model.md §7)
     done, _ = solve(tmp_path / "n19", "-N", 19)
     assert done.returncode == 3
     assert "k* = 2/rho = 0.052" in done.error_line and "N >= 20" in done.error_line and "-allowUnstable" in done.error_line
@@ -125,7 +125,7 @@ def test_the_tangential_glue_bound_is_sharp(tmp_path):
 
 def test_the_stability_study_finds_the_glue_threshold(tmp_path):
     """The study's bisection (orchestrate/stability.py, results/stability) on a soft glue: the
-    threshold it observes brackets the predicted 2/ρ_τ within 5 % (MODEL.md §7, issue target)."""
+    threshold it observes brackets the predicted 2/ρ_τ within 5 % (docs/model.md §7, issue target)."""
     row = threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": 100.0}, tmp_path / "run", GLUE)
     assert row["stableK"] < row["unstableK"]
     assert abs(row["difference"]) < 0.05, row

@@ -37,7 +37,7 @@ def test_errors_fall_at_least_at_the_theorems_rates(quick):
 
 def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_not_run(tmp_path):
     """A time ladder per scheme on one mesh, N = 10 … 160, against bdf2 at N = 320: euler's N = 10
-    exceeds k* = 0.052 (N >= 20, MODEL.md §7) and is reported as refused, not dropped silently;
+    exceeds k* = 0.052 (N >= 20, docs/model.md §7) and is reported as refused, not dropped silently;
     bdf2's successive differences over the finest levels fall as k²."""
     table = convergence(REPO / "scenes" / "paper.toml", tmp_path, count=2, kinds=("time",), schemes=("euler", "bdf2"),
                         time_steps=10, time_count=5, time_mesh_level=1)

@@ -65,7 +65,7 @@ def bonding(tmp_path, steps, *args):
 
 
 def bonding_recursion(s, steps, T, gamma_nu, gamma_r, L, beta0):
-    """MODEL.md §6 step 3, written out: β += k[−γ_ν β₊ P_B(R(g)²) + γ_r β₊(1 − β)₊/(1 + (Σ kβ)²)]."""
+    """docs/model.md §6 step 3, written out: β += k[−γ_ν β₊ P_B(R(g)²) + γ_r β₊(1 − β)₊/(1 + (Σ kβ)²)]."""
     k = T / steps
     beta, integral = np.full(len(s) - 1, beta0), np.zeros(len(s) - 1)
     for n in range(1, steps + 1):
