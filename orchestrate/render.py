@@ -1,26 +1,14 @@
-"""Images of a run: the seed's Figure 2 (von Mises stress and damage on the deformed bodies, at
-the final output time) with pyvista off screen, and matplotlib plots along Γ_C and over time."""
+"""Images of a run, with matplotlib: the seed's Figure 2 (von Mises stress and damage on the
+deformed bodies), the contact line along Γ_C, β over position and time, and the history."""
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
 from orchestrate.plots import pyplot, save
 from orchestrate.results import Result, load_result
-
-
-def pyvista():
-    """pyvista, off screen through EGL (imported when an image is made: it costs a second)."""
-    # an exported but empty VTK_DEFAULT_OPENGL_WINDOW would break the EGL window
-    if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
-        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
-    import pyvista as pv
-
-    pv.OFF_SCREEN = True
-    return pv
 
 
 # The labels of a scene's consistent units (output.units): length, stress, force per unit thickness.
@@ -39,10 +27,21 @@ def units_of(result: Result) -> dict[str, str]:
     return UNITS.get(scene.get("output", {}).get("units", "SI"), UNITS["SI"])
 
 
+# What the body files hold that a figure can show: title, unit kind (a key of UNITS, or None),
+# whether it is a cell field (P0, per triangle) or a point field (P1), and its colormap.
+FIELDS = {
+    "vonMises": ("von Mises stress", "stress", "cell", "viridis"),
+    "sigma11": ("σ11", "stress", "cell", "viridis"),
+    "sigma22": ("σ22", "stress", "cell", "viridis"),
+    "sigma12": ("σ12", "stress", "cell", "viridis"),
+    "sigma33": ("σ33", "stress", "cell", "viridis"),
+    "zeta": ("damage ζ (1 = sound)", None, "point", "magma"),
+}
+
+
 def field_titles(units: dict[str, str]) -> dict[str, str]:
-    # VTK's bundled font has no Greek letters and no ², so the image titles spell them out.
-    stress = units["stress"].replace("²", "^2")
-    return {"vonMises": f"von Mises stress ({stress})", "zeta": "damage zeta (1 = sound)"}
+    """Each field's colour-bar label with its unit."""
+    return {name: f"{title} ({units[kind]})" if kind else title for name, (title, kind, _, _) in FIELDS.items()}
 
 
 def nice_magnification(max_displacement: float, size: float) -> float:
@@ -55,16 +54,13 @@ def nice_magnification(max_displacement: float, size: float) -> float:
     return mantissa * 10 ** exponent
 
 
-def deformed_bodies(result: Result, time: float | None = None) -> tuple[list, float]:
-    """Both bodies' triangles (pyvista grids), warped by a round magnification of u; returns
-    (bodies, factor)."""
-    pv = pyvista()
-    files = result.outputs[-1][1] if time is None else dict(result.outputs)[time]
-    bodies = [pv.read(files[part]).extract_cells_by_type(pv.CellType.TRIANGLE) for part in ("body1", "body2")]
-    size = max(np.ptp(np.vstack([b.points for b in bodies]), axis=0))
-    largest = max(np.linalg.norm(b.point_data["u"], axis=1).max() for b in bodies)
-    factor = nice_magnification(largest, size)
-    return [body.warp_by_vector("u", factor=factor) for body in bodies], factor
+def bodies_at(result: Result, time: float | None = None) -> tuple[float, list]:
+    """The output time nearest `time` (default: the last) and both bodies' meshes there."""
+    times = [t for t, files in result.outputs if {"body1", "body2"} <= set(files)]
+    if not times:
+        raise FileNotFoundError(f"{result.folder} has no body files (output.fields needs 'bodies')")
+    chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
+    return chosen, [result.fields(part, chosen) for part in ("body1", "body2")]
 
 
 def colour_range(values: np.ndarray, floor: float = 1e-6) -> tuple[float, float]:
@@ -92,36 +88,98 @@ def steady_axis(axis, values: np.ndarray, floor: float = 1e-6) -> None:
     """Plain tick labels (no '1e-11 + 14.37' offset) on a y axis, and a near-constant series shown
     over at least `floor` of its size, like the colour bars, so its round-off does not fill the panel."""
     axis.ticklabel_format(axis="y", useOffset=False)
-    low, high = colour_range(np.asarray(values, dtype=float), floor)
+    values = np.asarray(values, dtype=float)
+    if not values.any():  # all 0 (no glue, no contact): an axis of plain numbers around it
+        axis.set_ylim(-1, 1)
+        return
+    low, high = colour_range(values, floor)
     if high - low > float(np.ptp(values)):
         axis.set_ylim(low, high)
 
 
-def render_fields(result: Result, target: Path, window=(1400, 1000)) -> dict[str, tuple[float, float]]:
-    """Figure 2 of the seed: von Mises stress (left) and damage ζ (right) on both bodies.
-    Returns the colour range each colour bar shows, read back from the rendered scene."""
-    bodies, factor = deformed_bodies(result)
-    time, titles = result.outputs[-1][0], field_titles(units_of(result))
-    plotter = pyvista().Plotter(shape=(1, 2), window_size=window, off_screen=True)
-    plotter.set_background("white")
-    for column, field in enumerate(("vonMises", "zeta")):
-        plotter.subplot(0, column)
-        limits = colour_range(np.concatenate([body[field] for body in bodies]))
-        bar = dict(title=titles[field], color="black", vertical=False, n_labels=5, fmt=label_format(*limits),
-                   position_x=0.12, position_y=0.03, width=0.76, height=0.06, title_font_size=16,
-                   label_font_size=14)
-        for index, body in enumerate(bodies):
-            plotter.add_mesh(body, scalars=field, cmap="viridis" if field == "vonMises" else "magma",
-                             clim=limits, show_edges=False, scalar_bar_args=bar, show_scalar_bar=index == 0,
-                             lighting=False)  # flat colours, as the colour bar shows them
-        plotter.add_text(f"{titles[field].split(' (')[0]} at t = {time:g}, "
-                         f"displacements magnified x{factor:g}", position="upper_edge", font_size=10, color="black")
-        plotter.view_xy()
-        plotter.camera.zoom(1.3)
-    plotter.screenshot(str(target))
-    shown = {field: tuple(plotter.scalar_bars[titles[field]].GetLookupTable().GetRange())
-             for field in ("vonMises", "zeta")}
-    plotter.close()
+def field_values(mesh, field: str) -> np.ndarray:
+    """A body's values of `field`: per triangle (cell fields) or per node (point fields)."""
+    held = mesh.cell_data_dict if FIELDS[field][2] == "cell" else mesh.point_data
+    if field not in held:
+        raise FileNotFoundError(f"the body files have no field {field} (the stresses need output.fields 'stress', "
+                                "sigma33 plane strain)")
+    values = held[field]["triangle"] if FIELDS[field][2] == "cell" else held[field]
+    return np.asarray(values, dtype=float).ravel()
+
+
+def render_fields(result: Result, target: Path, *, time: float | None = None, fields=("vonMises", "zeta"),
+                  magnification: float | None = None, ranges: str | tuple[float, float] = "shared",
+                  cmap: str | None = None, size: tuple[float, float] | None = None, dpi: int = 150) -> dict:
+    """Figure 2 of the seed: each field on both bodies, deformed by a stated magnification of u
+    (default: a round factor that makes the largest displacement 5 % of the scene; 0: undeformed),
+    one panel per field with axes in the scene's length unit, every body whole in view. ranges:
+    "shared" (one colour bar for both bodies), "per-body" (a colour bar each) or (low, high).
+    Returns the colour range each colour bar shows ({field: (low, high)}, or per body
+    {field: [(…), (…)]}), and "view" (x0, x1, y0, y1) and "magnification" as drawn."""
+    import matplotlib.tri as mtri
+
+    plt = pyplot()
+    unknown = [field for field in fields if field not in FIELDS]
+    if unknown:
+        raise ValueError(f"no field {', '.join(unknown)} (fields: {', '.join(FIELDS)})")
+    chosen, bodies = bodies_at(result, time)
+    units = units_of(result)
+    points = [body.points[:, :2].astype(float) for body in bodies]
+    moved = [np.asarray(body.point_data["u"], dtype=float)[:, :2] for body in bodies]
+    extent = np.ptp(np.vstack(points), axis=0).max()
+    factor = nice_magnification(max(np.linalg.norm(u, axis=1).max() for u in moved), extent) \
+        if magnification is None else magnification
+    shapes = [mtri.Triangulation(*(p + factor * u).T, body.cells_dict["triangle"])
+              for p, u, body in zip(points, moved, bodies)]
+    corners = np.vstack([np.column_stack([shape.x, shape.y]) for shape in shapes])
+    low, high = corners.min(axis=0), corners.max(axis=0)
+    margin = 0.03 * (high - low).max()
+    aspect = (high[0] - low[0] + 2 * margin) / (high[1] - low[1] + 2 * margin)
+    panel_height = min(4.0, 7.5 / aspect)  # a wide scene gets a lower panel, not a narrow strip
+    panel_width = max(panel_height * aspect, 1.8)
+    bars = 2 if ranges == "per-body" else 1
+    stacked = aspect > 1.3  # wide scenes one panel under the other, tall ones side by side
+    across = (panel_width + 1.4 * bars + 0.4, len(fields) * (panel_height + 0.8) + 0.3) if stacked else \
+        (len(fields) * (panel_width + 1.4 * bars) + 0.4, panel_height + 1.0)
+    width, height = size or across
+    figure, axes = plt.subplots(len(fields) if stacked else 1, 1 if stacked else len(fields), figsize=(width, height),
+                                squeeze=False, constrained_layout=True)
+    titles, shown = field_titles(units), {}
+    for axis, field in zip(axes.flat, fields):
+        values = [field_values(body, field) for body in bodies]
+        if isinstance(ranges, tuple):
+            limits = [ranges, ranges]
+        elif ranges == "per-body":
+            limits = [colour_range(v) for v in values]
+        else:
+            limits = [colour_range(np.concatenate(values))] * 2
+        colours = cmap or FIELDS[field][3]
+        drawn = []
+        for shape, value, (vmin, vmax) in zip(shapes, values, limits):
+            if FIELDS[field][2] == "cell":
+                drawn.append(axis.tripcolor(shape, facecolors=value, cmap=colours, vmin=vmin, vmax=vmax))
+            else:
+                drawn.append(axis.tripcolor(shape, value, shading="gouraud", cmap=colours, vmin=vmin, vmax=vmax))
+        for index in reversed(range(bars)):  # matplotlib puts the last bar made next to the panel
+            image = drawn[index]
+            label = titles[field] + (f", body {index + 1}" if bars == 2 else "")
+            bar = figure.colorbar(image, ax=axis, shrink=0.9, pad=0.02)
+            bar.set_label(label)
+            bar.formatter.set_useOffset(False)
+            bar.update_ticks()
+        shown[field] = [tuple(d.get_clim()) for d in drawn] if bars == 2 else tuple(drawn[0].get_clim())
+        axis.set_xlim(low[0] - margin, high[0] + margin)
+        axis.set_ylim(low[1] - margin, high[1] + margin)
+        axis.set_aspect("equal")
+        axis.set_xlabel(f"x ({units['length']})")
+        axis.set_ylabel(f"y ({units['length']})")
+        axis.set_title(f"{FIELDS[field][0].split(' (')[0]} at t = {chosen:g} s", fontsize=10)
+    shown["view"] = (*axis.get_xlim(), *axis.get_ylim())
+    shown["magnification"] = factor
+    stated = "undeformed" if factor == 0 else f"displacements magnified ×{factor:g}"
+    figure.suptitle(f"{stated} (bodies drawn at x + {factor:g}·u)" if factor else stated, fontsize=9)
+    figure.savefig(target, dpi=dpi)
+    plt.close(figure)
     return shown
 
 
@@ -196,8 +254,11 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     time_edges = np.concatenate([[times[0] - (times[1] - times[0]) / 2], (times[1:] + times[:-1]) / 2,
                                  [times[-1] + (times[-1] - times[-2]) / 2]])
     figure, axis = pyplot().subplots(figsize=(7, 4.2))
-    image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=0, vmax=1, shading="flat")
-    figure.colorbar(image, ax=axis, label="bonding β")
+    low, high = colour_range(np.array(rows))  # the data's range: β within 1e-4 of 1 is no solid block
+    image = axis.pcolormesh(edges, time_edges, np.array(rows), cmap="viridis", vmin=low, vmax=high, shading="flat")
+    bar = figure.colorbar(image, ax=axis, label="bonding β")
+    bar.formatter.set_useOffset(False)
+    bar.update_ticks()
     axis.set_xlabel(position_label)
     axis.set_ylabel("t (s)")
     axis.set_title("Bonding β along Γ_C over time")
@@ -205,19 +266,20 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     return target
 
 
-def render_all(result: Result, folder: Path) -> list[Path]:
-    """Every image the run's files allow: fields (body files), contact line, history."""
+def render_all(result: Result, folder: Path, image_format: str = "png", **fields_options) -> list[Path]:
+    """Every image the run's files allow: fields (body files), contact line, β over x and t,
+    history, in `image_format` (png, pdf, svg); fields_options go to render_fields."""
     folder.mkdir(parents=True, exist_ok=True)
     parts = set(result.outputs[-1][1]) if result.outputs else set()
     images = []
-    if {"body1", "body2"} <= parts:
-        render_fields(result, folder / "fields.png")
-        images.append(folder / "fields.png")
+    if any({"body1", "body2"} <= set(files) for _, files in result.outputs):
+        render_fields(result, folder / f"fields.{image_format}", **fields_options)
+        images.append(folder / f"fields.{image_format}")
     if "contact" in parts:
-        images.append(plot_contact_line(result, folder / "contact_line.png"))
+        images.append(plot_contact_line(result, folder / f"contact_line.{image_format}"))
     if sum("contact" in files for _, files in result.outputs) >= 3:
-        images.append(plot_bonding_evolution(result, folder / "beta_xt.png"))
-    return images + [plot_history(result, folder / "history.png")]
+        images.append(plot_bonding_evolution(result, folder / f"beta_xt.{image_format}"))
+    return images + [plot_history(result, folder / f"history.{image_format}")]
 
 
 # --- command line ---------------------------------------------------------------------------
@@ -225,13 +287,71 @@ def render_all(result: Result, folder: Path) -> list[Path]:
 NAME, HELP = "render", "images of a run folder"
 
 
+def number_pair(text: str) -> tuple[float, float]:
+    """'a,b' as two finite numbers, for --range and --size."""
+    import argparse
+
+    parts = text.split(",")
+    try:
+        values = tuple(float(part) for part in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 2 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"'{text}' is not two numbers a,b")
+    return values
+
+
+def field_list(text: str) -> tuple[str, ...]:
+    import argparse
+
+    names = tuple(name.strip() for name in text.split(","))
+    unknown = [name for name in names if name not in FIELDS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"no field {', '.join(unknown)} (fields: {', '.join(FIELDS)})")
+    return names
+
+
+def colour_ranges(text: str):
+    if text in ("shared", "per-body"):
+        return text
+    low, high = number_pair(text)
+    if not low < high:
+        import argparse
+
+        raise argparse.ArgumentTypeError(f"--range {text}: give low < high")
+    return low, high
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     parser.add_argument("--out", help="where to write the images (default: the run folder)")
+    parser.add_argument("--time", type=float, metavar="T", help="the output time of fields.* (default: the last; the nearest "
+                                                  "written is used)")
+    parser.add_argument("--fields", type=field_list, default=("vonMises", "zeta"), metavar="F1,F2",
+                        help=f"the fields of fields.*, comma-separated (default vonMises,zeta; of {', '.join(FIELDS)})")
+    parser.add_argument("--magnification", type=float, metavar="M",
+                        help="displacements drawn magnified by this (default: a round factor that makes the largest "
+                             "5 %% of the scene; 0: undeformed)")
+    parser.add_argument("--range", type=colour_ranges, default="shared", dest="ranges", metavar="RANGE",
+                        help="colour range: shared (one bar for both bodies, default), per-body, or low,high")
+    parser.add_argument("--cmap", metavar="NAME", help="a matplotlib colormap for every field (default viridis, magma for damage)")
+    parser.add_argument("--size", type=number_pair, metavar="W,H", help="the size of fields.* in inches, width,height "
+                                                         "(default: from the scene's shape)")
+    parser.add_argument("--format", choices=("png", "pdf", "svg"), default="png", dest="image_format",
+                        help="file format of every image (default png)")
+    parser.add_argument("--dpi", type=int, default=150, help="resolution of png images (default 150)")
 
 
 def command(options) -> int:
+    import matplotlib
+
+    if options.cmap and options.cmap not in matplotlib.colormaps:
+        raise RuntimeError(f"--cmap {options.cmap}: not a matplotlib colormap (for example viridis, magma, cividis)")
+    if options.magnification is not None and not (math.isfinite(options.magnification) and options.magnification >= 0):
+        raise RuntimeError(f"--magnification {options.magnification}: give a number >= 0")
     result = load_result(options.folder)
-    for path in render_all(result, Path(options.out or options.folder)):
+    for path in render_all(result, Path(options.out or options.folder), options.image_format, time=options.time,
+                           fields=options.fields, magnification=options.magnification, ranges=options.ranges,
+                           cmap=options.cmap, size=options.size, dpi=options.dpi):
         print(f"wrote {path}")
     return 0

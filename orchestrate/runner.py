@@ -395,6 +395,17 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
     return infos
 
 
+# The driver's flags its messages suggest, as this layer spells them.
+DRIVER_ADVICE = {"-allowUnstable 1": "--allow-unstable (or solver.allowUnstable = true in the scene)"}
+
+
+def python_spelling(message: str) -> str:
+    """A driver message with the flags it suggests in the spelling of `orchestrate run`."""
+    for flag, spelling in DRIVER_ADVICE.items():
+        message = message.replace(flag, spelling)
+    return message
+
+
 def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
     """Every label the scene names must be a boundary label of the body's mesh: a condition on a
     missing label acts on nothing and the run would silently be another problem."""
@@ -477,7 +488,7 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
     timing["solver"] = time.perf_counter() - clock
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
-        raise SolverError(done.returncode, done.error_line, tail)
+        raise SolverError(done.returncode, python_spelling(done.error_line), tail)
     check_files(folder)
     run_facts = facts(folder)
 

@@ -379,7 +379,11 @@ class Scene(Strict):
         try:
             return cls.model_validate(data)
         except ValidationError as error:
-            raise SceneError(f"{source}:\n" + "\n".join(describe(e) for e in error.errors())) from None
+            lines = [describe(e) for e in error.errors()]
+            given = [f"{key}:" for key in overrides or {}] + [f"{key} " for key in overrides or {}] + \
+                    [f"{key}." for key in overrides or {}]
+            lines = [f"--set {line}" if line.startswith(tuple(given)) else line for line in lines]
+            raise SceneError(f"{source}:\n" + "\n".join(lines)) from None
 
     def with_overrides(self, overrides: dict) -> "Scene":
         return Scene.from_dict(self.model_dump(mode="json"), overrides)

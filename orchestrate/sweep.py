@@ -236,6 +236,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
     parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
+    parser.add_argument("--images", action="store_true",
+                        help="render every run's images (off by default: a sweep's figures are in sweep.csv, and "
+                             "`render` draws any run's images later)")
 
 
 def command(options) -> int:
@@ -243,7 +246,10 @@ def command(options) -> int:
 
     from orchestrate.cli import parse_assignments
 
-    rows = sweep(options.scene, parse_grid(options.grid), options.out, parse_assignments(options.set, "--set"),
+    base = parse_assignments(options.set, "--set")
+    if not options.images:
+        base.setdefault("output.images", False)
+    rows = sweep(options.scene, parse_grid(options.grid), options.out, base,
                  workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
     width = max(len(row["folder"]) for row in rows)
     for row in rows:

@@ -70,3 +70,13 @@ def test_a_nan_stops_the_run_at_the_step_where_it_appears(tmp_path):
     assert done.returncode == 5
     assert "step 1/40" in done.error_line and "is not finite" in done.error_line
     assert not list((tmp_path / "run").glob("*.vtu"))
+
+
+def test_the_python_layer_suggests_its_own_flags(tmp_path):
+    """The driver says -allowUnstable 1; through `orchestrate run` the advice is --allow-unstable."""
+    from orchestrate.freefem import REPO
+    from orchestrate.runner import SolverError, run
+
+    with pytest.raises(SolverError) as error:
+        run(REPO / "scenes" / "paper.toml", tmp_path / "run", {"time.N": 5, "output.images": False})
+    assert "--allow-unstable" in error.value.message and "-allowUnstable 1" not in error.value.message

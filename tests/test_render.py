@@ -1,5 +1,9 @@
-"""Images of a run: Figure 2 of the seed (von Mises and damage on the deformed bodies) with its
-colour bars spanning the data, and the contact-line and history plots."""
+"""Images of a run: Figure 2 of the seed (the fields on the deformed bodies) with its colour bars
+spanning the data and every body whole in view, the options of `render`, and the contact-line
+and history plots."""
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -13,19 +17,17 @@ from orchestrate.results import cell_field
 @pytest.fixture(scope="module")
 def coarse(tmp_path_factory):
     return run(REPO / "scenes" / "paper.toml", tmp_path_factory.mktemp("render") / "run",
-               {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20})
+               {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.times": [0.5, 1.0]})
 
 
-def test_images_exist_with_the_expected_size_and_are_not_blank(coarse):
-    for name, size in [("fields.png", (1400, 1000)), ("contact_line.png", None), ("history.png", None)]:
+def test_images_exist_and_are_not_blank(coarse):
+    for name in ("fields.png", "contact_line.png", "history.png"):
         image = np.asarray(Image.open(coarse.folder / name).convert("RGB"), dtype=float)
-        if size:
-            assert image.shape[1::-1] == size
         colours = np.unique(image.reshape(-1, 3), axis=0)
         assert len(colours) > 50, f"{name} looks blank"
 
 
-def test_colour_bars_span_the_data(coarse, tmp_path):
+def test_colour_bars_span_the_data_and_every_body_is_whole_in_view(coarse, tmp_path):
     shown = render_fields(coarse, tmp_path / "fields.png")
     bodies = [coarse.fields(part) for part in ("body1", "body2")]
     von_mises = np.concatenate([cell_field(body, "vonMises") for body in bodies])
@@ -33,6 +35,34 @@ def test_colour_bars_span_the_data(coarse, tmp_path):
     assert shown["vonMises"] == pytest.approx((von_mises.min(), von_mises.max()), rel=1e-12, abs=1e-300)
     assert shown["zeta"] == pytest.approx((zeta.min(), zeta.max()), rel=1e-12)
     assert von_mises.max() > 0 and zeta.min() < 1
+    drawn = np.vstack([body.points[:, :2] + shown["magnification"] * body.point_data["u"][:, :2] for body in bodies])
+    x0, x1, y0, y1 = shown["view"]
+    assert x0 < drawn[:, 0].min() and drawn[:, 0].max() < x1 and y0 < drawn[:, 1].min() and drawn[:, 1].max() < y1
+
+
+def test_per_body_and_given_ranges_and_the_size(coarse, tmp_path):
+    bodies = [coarse.fields(part) for part in ("body1", "body2")]
+    shown = render_fields(coarse, tmp_path / "a.png", fields=("zeta",), ranges="per-body", size=(8, 4), dpi=100)
+    for (low, high), body in zip(shown["zeta"], bodies):
+        assert (low, high) == pytest.approx((body.point_data["zeta"].min(), body.point_data["zeta"].max()), rel=1e-12)
+    assert Image.open(tmp_path / "a.png").size == (800, 400)
+    shown = render_fields(coarse, tmp_path / "b.png", fields=("sigma22",), ranges=(-50.0, 10.0), magnification=0)
+    assert shown["sigma22"] == (-50.0, 10.0) and shown["magnification"] == 0
+    earlier = np.concatenate([coarse.fields(part, 0.5).point_data["zeta"] for part in ("body1", "body2")])
+    shown = render_fields(coarse, tmp_path / "c.png", time=0.5, fields=("zeta",))
+    assert shown["zeta"] == pytest.approx((earlier.min(), earlier.max()), rel=1e-12)
+
+
+def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out", str(tmp_path),
+                           "--time", "0.5", "--fields", "sigma11,zeta", "--format", "svg", "--cmap", "cividis"],
+                          cwd=REPO, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "fields.svg").read_text().lstrip().startswith("<?xml")
+    assert {p.suffix for p in tmp_path.iterdir()} == {".svg"}
+    refused = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--fields", "temperature"],
+                             cwd=REPO, capture_output=True, text=True)
+    assert refused.returncode == 2 and "no field temperature" in refused.stderr and "vonMises" in refused.stderr
 
 
 def test_a_field_uniform_to_round_off_is_shown_as_one_colour():

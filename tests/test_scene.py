@@ -106,3 +106,14 @@ def test_overrides_into_values_are_refused():
         apply_overrides({"time": {"N": 3}}, {"time.N.x": 1})
     with pytest.raises(SceneError, match="not an index"):
         apply_overrides({"b": [1, 2]}, {"b.5": 1})
+
+
+def test_a_bad_override_is_named_as_one_not_as_a_line_of_the_scene_file():
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {"time.NN": 3, "body1.material.E": -3.0})
+    lines = str(error.value).splitlines()
+    assert "--set time.NN: unknown key (did you mean 'N'?)" in lines
+    assert "--set body1.material.E = -3.0: Input should be greater than 0" in lines
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {"time.T": 2.0, "output.times": [3.0]})
+    assert not any(line.startswith("--set time.T") for line in str(error.value).splitlines())

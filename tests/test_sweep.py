@@ -74,3 +74,18 @@ def test_a_sweep_runs_on_an_existing_cluster_given_its_address(tmp_path):
         rows = sweep(SCENE, {"glue.gammaNu": [0.5]}, tmp_path, BASE, scheduler=cluster.scheduler_address)
         assert rows[0]["status"] == "completed"
         assert "run_one" in cluster.scheduler.task_prefixes  # the run went through that scheduler
+
+
+@pytest.mark.parametrize("images", [False, True])
+def test_a_sweep_draws_images_only_when_asked(tmp_path, images):
+    """A sweep's figures are its table: `sweep` runs skip the images unless --images."""
+    import subprocess
+    import sys
+
+    settings = [f"--set={key}={value}" for key, value in BASE.items() if key != "output.images"]
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "sweep", str(SCENE), "--grid", "glue.gammaNu=0",
+                           *settings, "--out", str(tmp_path / "sweep"), "--workers", "1", *(["--images"] if images else [])],
+                          cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    pictures = list((tmp_path / "sweep").rglob("*.png"))
+    assert bool(pictures) == images and (not images or {p.name for p in pictures} >= {"fields.png", "history.png"})
