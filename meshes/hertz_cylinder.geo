@@ -2,7 +2,7 @@
 // by a chord, keeping the arc of `angle` degrees centred on its lowest point (180: the half below
 // the diameter y = R; less: a rounded cap). Labels: 1 the lower arc (Γ_C, touching the block at
 // the origin), 2 the flat top (pressed). Size hc = 1/n within `zone` of the origin, growing linearly to hfar = ratio·hc at distance
-// `reach`; the arc is meshed as a polyline through its nodes (a curved contact side, MODEL.md §10).
+// `reach`; the arc is meshed as a polyline through its nodes (a curved contact side, docs/model.md §10).
 DefineConstant[ n = 8, R = 8, angle = 180, zone = 1.5, reach = 6, ratio = 8 ];
 If (n < 1 || n != Floor(n))
   Error("hertz_cylinder.geo: n = %g must be a positive integer", n);

@@ -1,4 +1,4 @@
-// Body 1 of the paper's scene (MODEL.md §8): Ω1 = (0,6)×(0,6).
+// Body 1 of the paper's scene (docs/model.md §8): Ω1 = (0,6)×(0,6).
 // Physical curve tags become FreeFEM boundary labels:
 //   1 Γ_C (y = 0)   2 right side (x = 6)   3 top, 3 ≤ x ≤ 6   4 top, 0 ≤ x ≤ 3   5 left side (x = 0)
 // The top is split at x = 3 because the paper's load jumps there; a mesh node must sit on the jump.

@@ -1,4 +1,4 @@
-// Body 2 of the paper's scene (MODEL.md §8): Ω2 = (0,6)×(−6,0).
+// Body 2 of the paper's scene (docs/model.md §8): Ω2 = (0,6)×(−6,0).
 // Physical curve tags become FreeFEM boundary labels:
 //   1 Γ_C (y = 0)   2 right side (x = 6)   3 bottom (y = −6)   4 left side (x = 0)
 // n = number of elements along each side (h = 6/n); structured = 1 gives a transfinite mesh

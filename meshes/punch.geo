@@ -1,7 +1,7 @@
 // A rounded punch (scenes/punch.toml): a flat face of half-width w at y = gap, its corners rounded
 // by quarter circles of radius r into vertical sides, height H above the face. Labels: 1 the face
 // and the two rounded corners (Γ_C: a polyline whose projection onto a horizontal line is
-// one-to-one, MODEL.md §10), 2 the top (pressed), 3 the sides; with split = 1 the corners are
+// one-to-one, docs/model.md §10), 2 the top (pressed), 3 the sides; with split = 1 the corners are
 // label 4 (a contact boundary of two labels, mesh.contactLabel = [1, 4]; the mesh is the same).
 // Uniform size h = (2w + 2r)/n.
 DefineConstant[ n = 24, w = 0.75, r = 0.5, H = 1.5, gap = 0.02, split = 0 ];

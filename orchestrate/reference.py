@@ -114,6 +114,41 @@ def rows(model: type[BaseModel], prefix: str) -> list[str]:
 
 HEADER = "| key | type | default | range | unit | meaning |\n|---|---|---|---|---|---|"
 
+RULES = """## What else a scene must satisfy
+
+- **Contact boundaries.** Body 1's (its `mesh.contactLabel`) is one straight segment: the mortar
+  side. Body 2's faces it and is a segment parallel to it or a curve that every line normal to
+  body 1's crosses at most once; they may have any extents (the contact acts on the overlap of
+  their projections onto body 1's line) and may start apart, never overlapping. Put a curved
+  side in body 2 (docs/model.md §10).
+- **Holding the bodies.** Each body needs at least one clamped, roller or displacement
+  condition; rigid motions it leaves free are held by the contact alone, which refuses a sliding
+  along Γ_C and loads that pull the body away (docs/model-choices.md, "Floating bodies").
+- **Labels** must be boundary labels of the body's mesh; the headers of the `meshes/` sources
+  below say which is which.
+- **Tractions** `fx`, `fy` are in the global x, y components (a pressure p on a top face is
+  `fy = "-p"`, on a bottom face `fy = "p"`); expressions follow the grammar of README.md
+  ("Python"), in x, y, t (initial data in x, y only).
+- **Output times** lie in (0, T]; `output.fields = []` writes no `.vtu`; `render --fields sigma*`
+  needs `"stress"`.
+"""
+
+
+def mesh_sources() -> list[str]:
+    """Each gmsh source of meshes/: its constants (mesh.n, mesh.parameters) and its header comment."""
+    from orchestrate.mesh import geo_constants
+
+    lines = ["## The gmsh sources in meshes/", ""]
+    for path in sorted((REPO / "meshes").glob("*.geo")):
+        header = []
+        for line in path.read_text().splitlines():
+            if not line.startswith("//"):
+                break
+            header.append(line[2:].strip())
+        lines += [f"### `meshes/{path.name}`", "", f"Constants: {', '.join(geo_constants(path))}.", "",
+                  *(f"> {line}" for line in header), ""]
+    return lines
+
 
 def page() -> str:
     from orchestrate import scene
@@ -151,6 +186,8 @@ def page() -> str:
         "a traction where its displacement is not wholly prescribed.",
         "",
         *boundary,
+        RULES,
+        *mesh_sources(),
     ])
 
 

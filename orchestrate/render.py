@@ -31,10 +31,10 @@ def units_of(result: Result) -> dict[str, str]:
 # whether it is a cell field (P0, per triangle) or a point field (P1), and its colormap.
 FIELDS = {
     "vonMises": ("von Mises stress", "stress", "cell", "viridis"),
-    "sigma11": ("σ11", "stress", "cell", "viridis"),
-    "sigma22": ("σ22", "stress", "cell", "viridis"),
-    "sigma12": ("σ12", "stress", "cell", "viridis"),
-    "sigma33": ("σ33", "stress", "cell", "viridis"),
+    "sigma11": ("σ11", "stress", "cell", "RdBu_r"),  # signed: a diverging map, centred on 0 (symmetric)
+    "sigma22": ("σ22", "stress", "cell", "RdBu_r"),
+    "sigma12": ("σ12", "stress", "cell", "RdBu_r"),
+    "sigma33": ("σ33", "stress", "cell", "RdBu_r"),
     "zeta": ("damage ζ (1 = sound)", None, "point", "magma"),
 }
 
@@ -45,8 +45,9 @@ def field_titles(units: dict[str, str]) -> dict[str, str]:
 
 
 def nice_magnification(max_displacement: float, size: float) -> float:
-    """A round factor (1, 2 or 5 × 10^k) that makes the largest displacement about 5 % of the size."""
-    if max_displacement <= 0:
+    """A round factor (1, 2 or 5 × 10^k, at least 1) that makes the largest displacement about 5 %
+    of the size: displacements are never drawn smaller than they are."""
+    if max_displacement <= 0 or max_displacement >= 0.05 * size:
         return 1.0
     target = 0.05 * size / max_displacement
     exponent = math.floor(math.log10(target))
@@ -74,16 +75,6 @@ def colour_range(values: np.ndarray, floor: float = 1e-6) -> tuple[float, float]
     return middle - 0.5 * width, middle + 0.5 * width
 
 
-def label_format(low: float, high: float, labels: int = 5) -> str:
-    """A printf format whose significant digits tell `labels` evenly spaced values in [low, high]
-    apart (a uniform field's 1e-6 wide bar would otherwise read 15.09 five times)."""
-    step = (high - low) / (labels - 1)
-    size = max(abs(low), abs(high))
-    if step <= 0 or size == 0:
-        return "%.4g"
-    return f"%.{max(4, math.ceil(math.log10(size / step)) + 2)}g"
-
-
 def steady_axis(axis, values: np.ndarray, floor: float = 1e-6) -> None:
     """Plain tick labels (no '1e-11 + 14.37' offset) on a y axis, and a near-constant series shown
     over at least `floor` of its size, like the colour bars, so its round-off does not fill the panel."""
@@ -97,6 +88,21 @@ def steady_axis(axis, values: np.ndarray, floor: float = 1e-6) -> None:
         axis.set_ylim(low, high)
 
 
+def centred(limits: tuple[float, float]) -> tuple[float, float]:
+    """A range symmetric about 0 that holds `limits` (for a signed field's diverging map)."""
+    reach = max(abs(limits[0]), abs(limits[1]))
+    return -reach, reach
+
+
+def outline(axis, body, drawn: np.ndarray) -> None:
+    """The body's boundary edges (the line cells of its file) as thin lines at their drawn place."""
+    from matplotlib.collections import LineCollection
+
+    edges = body.cells_dict.get("line")
+    if edges is not None:
+        axis.add_collection(LineCollection(drawn[edges], colors="black", linewidths=0.4))
+
+
 def field_values(mesh, field: str) -> np.ndarray:
     """A body's values of `field`: per triangle (cell fields) or per node (point fields)."""
     held = mesh.cell_data_dict if FIELDS[field][2] == "cell" else mesh.point_data
@@ -107,15 +113,24 @@ def field_values(mesh, field: str) -> np.ndarray:
     return np.asarray(values, dtype=float).ravel()
 
 
+def initial_gap_in(result: Result) -> bool:
+    """Whether the bodies start apart somewhere (the contact line holds initialGap)."""
+    files = result.outputs[-1][1] if result.outputs else {}
+    return "contact" in files and "initialGap" in result.fields("contact").point_data
+
+
 def render_fields(result: Result, target: Path, *, time: float | None = None, fields=("vonMises", "zeta"),
-                  magnification: float | None = None, ranges: str | tuple[float, float] = "shared",
+                  magnification: float | None = None, ranges: str | dict = "shared",
                   cmap: str | None = None, size: tuple[float, float] | None = None, dpi: int = 150) -> dict:
-    """Figure 2 of the seed: each field on both bodies, deformed by a stated magnification of u
-    (default: a round factor that makes the largest displacement 5 % of the scene; 0: undeformed),
-    one panel per field with axes in the scene's length unit, every body whole in view. ranges:
-    "shared" (one colour bar for both bodies), "per-body" (a colour bar each) or (low, high).
-    Returns the colour range each colour bar shows ({field: (low, high)}, or per body
-    {field: [(…), (…)]}), and "view" (x0, x1, y0, y1) and "magnification" as drawn."""
+    """Figure 2 of the seed: each field on both bodies, deformed by a stated magnification of u,
+    one panel per field with axes in the scene's length unit, every body whole in view, its
+    boundary outlined. The default magnification is a round factor ≥ 1 that makes the largest
+    displacement 5 % of the scene, and 1 when the bodies start apart somewhere (magnifying would
+    draw the closed gap as an overlap); 0 draws them undeformed. ranges: "shared" (one colour bar
+    for both bodies), "per-body" (a colour bar each), or {field: (low, high)} (the others shared).
+    Signed stresses take a diverging map centred on 0. Returns the colour range each colour bar
+    shows ({field: (low, high)}, or per body {field: [(…), (…)]}), and "view" (x0, x1, y0, y1),
+    "magnification" and "time" as drawn."""
     import matplotlib.tri as mtri
 
     plt = pyplot()
@@ -127,8 +142,12 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     points = [body.points[:, :2].astype(float) for body in bodies]
     moved = [np.asarray(body.point_data["u"], dtype=float)[:, :2] for body in bodies]
     extent = np.ptp(np.vstack(points), axis=0).max()
-    factor = nice_magnification(max(np.linalg.norm(u, axis=1).max() for u in moved), extent) \
-        if magnification is None else magnification
+    if magnification is not None:
+        factor = magnification
+    elif initial_gap_in(result):
+        factor = 1.0
+    else:
+        factor = nice_magnification(max(np.linalg.norm(u, axis=1).max() for u in moved), extent)
     shapes = [mtri.Triangulation(*(p + factor * u).T, body.cells_dict["triangle"])
               for p, u, body in zip(points, moved, bodies)]
     corners = np.vstack([np.column_stack([shape.x, shape.y]) for shape in shapes])
@@ -138,6 +157,7 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     panel_height = min(4.0, 7.5 / aspect)  # a wide scene gets a lower panel, not a narrow strip
     panel_width = max(panel_height * aspect, 1.8)
     bars = 2 if ranges == "per-body" else 1
+    given = ranges if isinstance(ranges, dict) else {}
     stacked = aspect > 1.3  # wide scenes one panel under the other, tall ones side by side
     across = (panel_width + 1.4 * bars + 0.4, len(fields) * (panel_height + 0.8) + 0.3) if stacked else \
         (len(fields) * (panel_width + 1.4 * bars) + 0.4, panel_height + 1.0)
@@ -147,19 +167,24 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     titles, shown = field_titles(units), {}
     for axis, field in zip(axes.flat, fields):
         values = [field_values(body, field) for body in bodies]
-        if isinstance(ranges, tuple):
-            limits = [ranges, ranges]
+        signed = FIELDS[field][3] == "RdBu_r" and cmap is None
+        if field in given:
+            limits = [given[field]] * 2
         elif ranges == "per-body":
-            limits = [colour_range(v) for v in values]
+            limits = [centred(colour_range(v)) if signed else colour_range(v) for v in values]
         else:
-            limits = [colour_range(np.concatenate(values))] * 2
+            whole = colour_range(np.concatenate(values))
+            limits = [centred(whole) if signed else whole] * 2
         colours = cmap or FIELDS[field][3]
         drawn = []
-        for shape, value, (vmin, vmax) in zip(shapes, values, limits):
+        for shape, value, (vmin, vmax), body, p, u in zip(shapes, values, limits, bodies, points, moved):
             if FIELDS[field][2] == "cell":
-                drawn.append(axis.tripcolor(shape, facecolors=value, cmap=colours, vmin=vmin, vmax=vmax))
+                image = axis.tripcolor(shape, facecolors=value, cmap=colours, vmin=vmin, vmax=vmax)
             else:
-                drawn.append(axis.tripcolor(shape, value, shading="gouraud", cmap=colours, vmin=vmin, vmax=vmax))
+                image = axis.tripcolor(shape, value, shading="gouraud", cmap=colours, vmin=vmin, vmax=vmax)
+            image.set_rasterized(True)  # a vector file keeps its axes and text, not 10⁴ gradient patches
+            drawn.append(image)
+            outline(axis, body, p + factor * u)
         for index in reversed(range(bars)):  # matplotlib puts the last bar made next to the panel
             image = drawn[index]
             label = titles[field] + (f", body {index + 1}" if bars == 2 else "")
@@ -175,7 +200,7 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
         axis.set_ylabel(f"y ({units['length']})")
         axis.set_title(f"{FIELDS[field][0].split(' (')[0]} at t = {chosen:g} s", fontsize=10)
     shown["view"] = (*axis.get_xlim(), *axis.get_ylim())
-    shown["magnification"] = factor
+    shown["magnification"], shown["time"] = factor, chosen
     stated = "undeformed" if factor == 0 else f"displacements magnified ×{factor:g}"
     figure.suptitle(f"{stated} (bodies drawn at x + {factor:g}·u)" if factor else stated, fontsize=9)
     figure.savefig(target, dpi=dpi)
@@ -193,10 +218,13 @@ def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str
     return np.linalg.norm(points - points[0], axis=1), f"position along Γ_C ({length_unit})"
 
 
-def plot_contact_line(result: Result, target: Path) -> Path:
-    """β, the gap and the contact pressure along Γ_C at the final output time; with an initial gap
-    g0 the gap is shown as g_h − π1 g0, so that 0 is closed there too."""
-    line = result.fields("contact")
+def plot_contact_line(result: Result, target: Path, time: float | None = None, dpi: int = 120) -> Path:
+    """β, the gap and the contact pressure along Γ_C at an output time (default: the last, else the
+    nearest written); with an initial gap g0 the gap is shown as g_h − π1 g0, so that 0 is closed
+    there too."""
+    times = [t for t, files in result.outputs if "contact" in files]
+    chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
+    line = result.fields("contact", chosen)
     units = units_of(result)
     s, position_label = line_position(line.points, units["length"])
     beta = line.cell_data["beta"][0]
@@ -213,12 +241,12 @@ def plot_contact_line(result: Result, target: Path) -> Path:
     steady_axis(axes[2], line.point_data["pressure"])
     axes[2].set_ylabel(f"contact pressure ({units['stress']})")
     axes[2].set_xlabel(position_label)
-    figure.suptitle(f"Contact line at t = {result.outputs[-1][0]:g}")
-    save(figure, target, dpi=120)
+    figure.suptitle(f"Contact line at t = {chosen:g} s")
+    save(figure, target, dpi=dpi)
     return target
 
 
-def plot_history(result: Result, target: Path) -> Path:
+def plot_history(result: Result, target: Path, dpi: int = 110) -> Path:
     """The history.csv series over time."""
     h, units = result.history, units_of(result)
     panels = [("‖u‖_V", ["normV"]), (f"max von Mises ({units['stress']})", ["vmMax1", "vmMax2"]),
@@ -235,11 +263,11 @@ def plot_history(result: Result, target: Path) -> Path:
             axis.legend(fontsize=8)
     for axis in axes[-1]:
         axis.set_xlabel("t (s)")
-    save(figure, target)
+    save(figure, target, dpi=dpi)
     return target
 
 
-def plot_bonding_evolution(result: Result, target: Path) -> Path:
+def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path:
     """β over the position along Γ_C and the time, from every contact-line output."""
     import meshio
 
@@ -262,24 +290,27 @@ def plot_bonding_evolution(result: Result, target: Path) -> Path:
     axis.set_xlabel(position_label)
     axis.set_ylabel("t (s)")
     axis.set_title("Bonding β along Γ_C over time")
-    save(figure, target)
+    save(figure, target, dpi=dpi)
     return target
 
 
-def render_all(result: Result, folder: Path, image_format: str = "png", **fields_options) -> list[Path]:
+def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int | None = None,
+               **fields_options) -> list[Path]:
     """Every image the run's files allow: fields (body files), contact line, β over x and t,
-    history, in `image_format` (png, pdf, svg); fields_options go to render_fields."""
+    history, in `image_format` (png, pdf, svg) at `dpi` (default: each image's own);
+    fields_options (time among them) go to render_fields. Returns the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
-    parts = set(result.outputs[-1][1]) if result.outputs else set()
+    own = {} if dpi is None else {"dpi": dpi}
     images = []
     if any({"body1", "body2"} <= set(files) for _, files in result.outputs):
-        render_fields(result, folder / f"fields.{image_format}", **fields_options)
+        render_fields(result, folder / f"fields.{image_format}", **own, **fields_options)
         images.append(folder / f"fields.{image_format}")
-    if "contact" in parts:
-        images.append(plot_contact_line(result, folder / f"contact_line.{image_format}"))
+    if any("contact" in files for _, files in result.outputs):
+        images.append(plot_contact_line(result, folder / f"contact_line.{image_format}", fields_options.get("time"),
+                                        **own))
     if sum("contact" in files for _, files in result.outputs) >= 3:
-        images.append(plot_bonding_evolution(result, folder / f"beta_xt.{image_format}"))
-    return images + [plot_history(result, folder / f"history.{image_format}")]
+        images.append(plot_bonding_evolution(result, folder / f"beta_xt.{image_format}", **own))
+    return images + [plot_history(result, folder / f"history.{image_format}", **own)]
 
 
 # --- command line ---------------------------------------------------------------------------
@@ -288,7 +319,7 @@ NAME, HELP = "render", "images of a run folder"
 
 
 def number_pair(text: str) -> tuple[float, float]:
-    """'a,b' as two finite numbers, for --range and --size."""
+    """'a,b' as two finite numbers, for --range."""
     import argparse
 
     parts = text.split(",")
@@ -299,6 +330,24 @@ def number_pair(text: str) -> tuple[float, float]:
     if len(values) != 2 or not all(math.isfinite(v) for v in values):
         raise argparse.ArgumentTypeError(f"'{text}' is not two numbers a,b")
     return values
+
+
+def figure_size(text: str) -> tuple[float, float]:
+    """--size W,H: two positive numbers (inches)."""
+    import argparse
+
+    width, height = number_pair(text)
+    if not (0 < width <= 100 and 0 < height <= 100):
+        raise argparse.ArgumentTypeError(f"'{text}': give a width and a height in (0, 100] inches")
+    return width, height
+
+
+def resolution(text: str) -> int:
+    import argparse
+
+    if not text.isdigit() or not 10 <= int(text) <= 2400:
+        raise argparse.ArgumentTypeError(f"'{text}': give dots per inch, an integer in [10, 2400]")
+    return int(text)
 
 
 def field_list(text: str) -> tuple[str, ...]:
@@ -312,14 +361,19 @@ def field_list(text: str) -> tuple[str, ...]:
 
 
 def colour_ranges(text: str):
+    """--range: shared, per-body, or FIELD=LOW,HIGH (repeatable: one field each)."""
+    import argparse
+
     if text in ("shared", "per-body"):
         return text
-    low, high = number_pair(text)
+    field, equals, pair = text.partition("=")
+    if not equals or field not in FIELDS:
+        raise argparse.ArgumentTypeError(f"'{text}': give shared, per-body, or FIELD=LOW,HIGH with FIELD one of "
+                                         f"{', '.join(FIELDS)} (e.g. sigma22=-20,20)")
+    low, high = number_pair(pair)
     if not low < high:
-        import argparse
-
-        raise argparse.ArgumentTypeError(f"--range {text}: give low < high")
-    return low, high
+        raise argparse.ArgumentTypeError(f"'{text}': give LOW < HIGH")
+    return {field: (low, high)}
 
 
 def add_arguments(parser) -> None:
@@ -332,14 +386,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--magnification", type=float, metavar="M",
                         help="displacements drawn magnified by this (default: a round factor that makes the largest "
                              "5 %% of the scene; 0: undeformed)")
-    parser.add_argument("--range", type=colour_ranges, default="shared", dest="ranges", metavar="RANGE",
-                        help="colour range: shared (one bar for both bodies, default), per-body, or low,high")
+    parser.add_argument("--range", type=colour_ranges, action="append", dest="ranges", metavar="RANGE",
+                        help="colour ranges: shared (one bar for both bodies, default), per-body, or FIELD=LOW,HIGH "
+                             "for one field (repeat for others), e.g. --range sigma22=-20,20")
     parser.add_argument("--cmap", metavar="NAME", help="a matplotlib colormap for every field (default viridis, magma for damage)")
-    parser.add_argument("--size", type=number_pair, metavar="W,H", help="the size of fields.* in inches, width,height "
+    parser.add_argument("--size", type=figure_size, metavar="W,H", help="the size of fields.* in inches, width,height "
                                                          "(default: from the scene's shape)")
     parser.add_argument("--format", choices=("png", "pdf", "svg"), default="png", dest="image_format",
                         help="file format of every image (default png)")
-    parser.add_argument("--dpi", type=int, default=150, help="resolution of png images (default 150)")
+    parser.add_argument("--dpi", type=resolution, help="resolution of every png image (default: 150 for fields, "
+                                                       "about 110 for the plots)")
 
 
 def command(options) -> int:
@@ -349,9 +405,23 @@ def command(options) -> int:
         raise RuntimeError(f"--cmap {options.cmap}: not a matplotlib colormap (for example viridis, magma, cividis)")
     if options.magnification is not None and not (math.isfinite(options.magnification) and options.magnification >= 0):
         raise RuntimeError(f"--magnification {options.magnification}: give a number >= 0")
+    ranges, given = "shared", {}
+    for choice in options.ranges or []:
+        if isinstance(choice, dict):
+            given.update(choice)
+        else:
+            ranges = choice
+    if given and ranges == "per-body":
+        raise RuntimeError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
     result = load_result(options.folder)
-    for path in render_all(result, Path(options.out or options.folder), options.image_format, time=options.time,
-                           fields=options.fields, magnification=options.magnification, ranges=options.ranges,
-                           cmap=options.cmap, size=options.size, dpi=options.dpi):
+    if options.time is not None:
+        written = [t for t, _ in result.outputs]
+        nearest = min(written, key=lambda t: abs(t - options.time)) if written else None
+        if nearest is not None and nearest != options.time:
+            print(f"--time {options.time:g}: drawing t = {nearest:g}, the nearest output time (written: "
+                  f"{', '.join(f'{t:g}' for t in written)})")
+    for path in render_all(result, Path(options.out or options.folder), options.image_format, options.dpi,
+                           time=options.time, fields=options.fields, magnification=options.magnification,
+                           ranges=given or ranges, cmap=options.cmap, size=options.size):
         print(f"wrote {path}")
     return 0

@@ -165,6 +165,10 @@ def test_the_rounded_punch_closes_its_gap_then_spreads_its_contact(tmp_path):
     weakest = block.points[np.argmin(zeta), :2]
     assert 0.6 < abs(weakest[0]) < 1.0 and weakest[1] > -0.3, f"damage peaks at {weakest}"
     assert zeta.min() < 0.95
+    # the bodies start apart: drawn magnified, the closed gap would look like an overlap
+    from orchestrate.render import render_fields
+
+    assert render_fields(result, tmp_path / "fields.png")["magnification"] == 1
 
 
 def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):

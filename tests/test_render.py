@@ -28,6 +28,7 @@ def test_images_exist_and_are_not_blank(coarse):
 
 
 def test_colour_bars_span_the_data_and_every_body_is_whole_in_view(coarse, tmp_path):
+    """And the magnification is a round factor of at least 1 (displacements never drawn smaller)."""
     shown = render_fields(coarse, tmp_path / "fields.png")
     bodies = [coarse.fields(part) for part in ("body1", "body2")]
     von_mises = np.concatenate([cell_field(body, "vonMises") for body in bodies])
@@ -35,6 +36,7 @@ def test_colour_bars_span_the_data_and_every_body_is_whole_in_view(coarse, tmp_p
     assert shown["vonMises"] == pytest.approx((von_mises.min(), von_mises.max()), rel=1e-12, abs=1e-300)
     assert shown["zeta"] == pytest.approx((zeta.min(), zeta.max()), rel=1e-12)
     assert von_mises.max() > 0 and zeta.min() < 1
+    assert shown["magnification"] >= 1
     drawn = np.vstack([body.points[:, :2] + shown["magnification"] * body.point_data["u"][:, :2] for body in bodies])
     x0, x1, y0, y1 = shown["view"]
     assert x0 < drawn[:, 0].min() and drawn[:, 0].max() < x1 and y0 < drawn[:, 1].min() and drawn[:, 1].max() < y1
@@ -46,8 +48,14 @@ def test_per_body_and_given_ranges_and_the_size(coarse, tmp_path):
     for (low, high), body in zip(shown["zeta"], bodies):
         assert (low, high) == pytest.approx((body.point_data["zeta"].min(), body.point_data["zeta"].max()), rel=1e-12)
     assert Image.open(tmp_path / "a.png").size == (800, 400)
-    shown = render_fields(coarse, tmp_path / "b.png", fields=("sigma22",), ranges=(-50.0, 10.0), magnification=0)
+    shown = render_fields(coarse, tmp_path / "b.png", fields=("sigma22", "zeta"), ranges={"sigma22": (-50.0, 10.0)},
+                          magnification=0)
     assert shown["sigma22"] == (-50.0, 10.0) and shown["magnification"] == 0
+    zeta = np.concatenate([body.point_data["zeta"] for body in bodies])
+    assert shown["zeta"] == pytest.approx((zeta.min(), zeta.max()), rel=1e-12)  # a range given is the field's own
+    sigma = np.concatenate([cell_field(body, "sigma11") for body in bodies])
+    shown = render_fields(coarse, tmp_path / "d.png", fields=("sigma11",))
+    assert shown["sigma11"] == pytest.approx((-np.abs(sigma).max(), np.abs(sigma).max()), rel=1e-12)  # centred on 0
     earlier = np.concatenate([coarse.fields(part, 0.5).point_data["zeta"] for part in ("body1", "body2")])
     shown = render_fields(coarse, tmp_path / "c.png", time=0.5, fields=("zeta",))
     assert shown["zeta"] == pytest.approx((earlier.min(), earlier.max()), rel=1e-12)
@@ -60,9 +68,17 @@ def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "fields.svg").read_text().lstrip().startswith("<?xml")
     assert {p.suffix for p in tmp_path.iterdir()} == {".svg"}
-    refused = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--fields", "temperature"],
-                             cwd=REPO, capture_output=True, text=True)
-    assert refused.returncode == 2 and "no field temperature" in refused.stderr and "vonMises" in refused.stderr
+    for options, words in [(["--fields", "temperature"], ["no field temperature", "vonMises"]),
+                           (["--range", "per-bod"], ["shared, per-body, or FIELD=LOW,HIGH"]),
+                           (["--size", "0,0"], ["(0, 100] inches"]), (["--dpi", "0"], ["[10, 2400]"])]:
+        refused = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), *options],
+                                 cwd=REPO, capture_output=True, text=True)
+        assert refused.returncode == 2 and all(word in refused.stderr for word in words), refused.stderr
+    signed = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out", str(tmp_path / "s"),
+                             "--fields", "sigma22", "--range", "sigma22=-20,20", "--time", "0.7"],
+                            cwd=REPO, capture_output=True, text=True)
+    assert signed.returncode == 0, signed.stderr
+    assert "--time 0.7: drawing t = 0.5, the nearest output time (written: 0.5, 1)" in signed.stdout
 
 
 def test_a_field_uniform_to_round_off_is_shown_as_one_colour():
