@@ -89,7 +89,8 @@ def package_versions() -> dict[str, str]:
 
 
 def default_folder(scene_path: Path | None) -> Path:
-    return REPO / "results" / (scene_path.stem if scene_path else "run")
+    """results/<scene name> in the current folder: a user's runs go to the user's project."""
+    return Path("results") / (scene_path.stem if scene_path else "run")
 
 
 def output_folder(out: str | Path) -> Path:
@@ -534,7 +535,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
-    parser.add_argument("--out", help="output folder (default results/<scene name>)")
+    parser.add_argument("--out", help="output folder (default results/<scene name> in the current folder)")
     parser.add_argument("--force", action="store_true", help="replace the output folder if it holds a run")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted run of the same inputs from its last checkpoint (in <out>.partial)")

@@ -73,6 +73,15 @@ def test_the_command_line_runs_a_scene_with_overrides(tmp_path):
     assert load_result(tmp_path / "r").params["N"] == 20
 
 
+def test_a_run_without_out_goes_to_results_in_the_current_folder(tmp_path):
+    """A user's runs go to the user's project, not into this repository."""
+    sets = [item for key, value in COARSE.items() for item in ("--set", f"{key}={str(value).lower()}")]
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "run", str(PAPER), *sets], capture_output=True,
+                          text=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert done.returncode == 0, done.stderr
+    assert load_result(tmp_path / "results" / "paper").params["N"] == 20
+
+
 def test_a_bad_override_is_refused_before_anything_runs(tmp_path):
     done = subprocess.run([sys.executable, "-m", "orchestrate", "run", str(PAPER), "--set", "body1.material.nu=0.6",
                            "--out", str(tmp_path / "r")], capture_output=True, text=True, cwd=REPO)
