@@ -290,7 +290,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--time-fraction", type=unit_fraction, default=0.25,
                         help="the time error each level's N aims at, as a fraction of the level's space error "
                              "(default 0.25)")
-    parser.add_argument("--out", default="results/bench")
+    parser.add_argument("--out", default="results/bench", help="where the tables and plots go")
 
 
 def command(options) -> int:

@@ -63,10 +63,22 @@ def choices_list(allowed) -> callable:
     return parse
 
 
+class DefaultsShown(argparse.HelpFormatter):
+    """Help that ends every option with its default, unless its text already gives it."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        shown = action.default not in (None, False, [], (), argparse.SUPPRESS) and action.option_strings
+        if shown and "default" not in text:
+            text += (" " if text else "") + "(default: %(default)s)"
+        return text
+
+
 def add_commands(subparsers, modules) -> None:
     for name in modules:
         module = importlib.import_module(name)
-        parser = subparsers.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        parser = subparsers.add_parser(module.NAME, help=module.HELP, description=module.HELP,
+                                       formatter_class=DefaultsShown)
         module.add_arguments(parser)
         parser.set_defaults(handler=module.command)
 

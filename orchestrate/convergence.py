@@ -251,10 +251,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--space-steps-level", type=int, default=4, help="step level of the space-only ladder")
     parser.add_argument("--schemes", type=choices_list(PARAMETERS["scheme"].choices), default=None,
                         help="a time ladder per scheme, comma-separated (default: the scene's scheme)")
-    parser.add_argument("--time-N", type=positive, default=None, help="time steps at the coarsest level of the time ladders")
-    parser.add_argument("--time-levels", type=at_least_two, default=None, help="levels of each time ladder")
-    parser.add_argument("--workers", type=positive, default=2)
-    parser.add_argument("--out", default="results/convergence")
+    parser.add_argument("--time-N", type=positive, default=None,
+                        help="time steps at the coarsest level of the time ladders (default: --N)")
+    parser.add_argument("--time-levels", type=at_least_two, default=None,
+                        help="levels of each time ladder (default: --levels)")
+    parser.add_argument("--workers", type=positive, default=2, help="runs at a time")
+    parser.add_argument("--out", default="results/convergence", help="where the tables and plots go")
 
 
 def command(options) -> int:

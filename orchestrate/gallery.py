@@ -14,7 +14,7 @@ NAME, HELP = "gallery", "run the gallery scenes into results/gallery"
 
 def add_arguments(parser) -> None:
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"some of {', '.join(SCENES)} (default: all)")
-    parser.add_argument("--out", default="results/gallery")
+    parser.add_argument("--out", default="results/gallery", help="where the scenes' folders go")
 
 
 def command(options) -> int:

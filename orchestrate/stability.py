@@ -240,8 +240,9 @@ NAME, HELP = "stability", "predicted against observed explicit time-step bound"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("scene", nargs="?", default="scenes/paper.toml")
-    parser.add_argument("--out", default="results/stability")
+    parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
+                                                                              "(default: scenes/paper.toml)")
+    parser.add_argument("--out", default="results/stability", help="where the table and report go")
 
 
 def command(options) -> int:

@@ -49,3 +49,28 @@ def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_
     bdf2 = rates(table, "time bdf2")
     assert 1.8 < bdf2["errorV"]["successive"] < 2.3, bdf2
     assert 0.9 < rates(table, "time euler")["errorV"]["reference"] < 1.1
+
+
+def test_every_option_of_every_command_says_its_default():
+    """`--help` of each command and study: an option with a default names it (argparse's own,
+    or the option's text)."""
+    import argparse
+
+    from orchestrate.cli import parser
+
+    def commands(top):
+        for action in top._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    yield name, sub
+                    yield from commands(sub)
+
+    for name, sub in commands(parser()):
+        text = sub.format_help().split("\noptions:", 1)[-1]  # past the usage lines
+        for action in sub._actions:
+            if action.option_strings and action.default not in (None, False, [], (), argparse.SUPPRESS) \
+                    and action.dest != "help":
+                line = next((i for i, row in enumerate(text.splitlines()) if row.lstrip().startswith(action.option_strings[-1])),
+                            None)
+                block = " ".join(text.splitlines()[line:line + 4]) if line is not None else ""
+                assert "default" in block, (name, action.option_strings)
