@@ -247,7 +247,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--n1", type=positive, default=6, help="body 1 elements per side at the coarsest level")
     parser.add_argument("--n2", type=positive, default=8, help="body 2 elements per side at the coarsest level")
     parser.add_argument("--N", type=positive, default=20, help="time steps at the coarsest level")
-    parser.add_argument("--time-mesh-level", type=int, default=3, help="mesh level of the time-only ladders")
+    parser.add_argument("--time-mesh-level", type=int, default=None,
+                        help="mesh level of the time-only ladders, at most the finest space level (default: 3, or "
+                             "the finest space level when --levels is smaller)")
     parser.add_argument("--space-steps-level", type=int, default=4, help="step level of the space-only ladder")
     parser.add_argument("--schemes", type=choices_list(PARAMETERS["scheme"].choices), default=None,
                         help="a time ladder per scheme, comma-separated (default: the scene's scheme)")
@@ -259,9 +261,23 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="results/convergence", help="where the tables and plots go")
 
 
+def time_mesh_level(levels: int, given: int | None) -> int:
+    """The time ladders' mesh level: 3 by default, never finer than the space ladder's finest
+    (levels − 1), whose meshes the study's space errors are measured on."""
+    from orchestrate.freefem import InputError
+
+    if given is None:
+        return min(3, levels - 1)
+    if not 0 <= given <= levels - 1:
+        raise InputError(f"--time-mesh-level {given}: give a level in [0, {levels - 1}] (the space ladder's levels, "
+                         f"--levels {levels})")
+    return given
+
+
 def command(options) -> int:
     convergence(options.scene, options.out, count=options.levels, n1=options.n1, n2=options.n2, steps=options.N,
-                time_mesh_level=options.time_mesh_level, space_steps_level=options.space_steps_level,
+                time_mesh_level=time_mesh_level(options.levels, options.time_mesh_level),
+                space_steps_level=options.space_steps_level,
                 kinds=options.ladders, schemes=options.schemes or (None,), time_steps=options.time_N,
                 time_count=options.time_levels, workers=options.workers, progress=sys.stderr.isatty())
     print((Path(options.out) / "README.md").read_text())

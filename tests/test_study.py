@@ -74,3 +74,13 @@ def test_every_option_of_every_command_says_its_default():
                             None)
                 block = " ".join(text.splitlines()[line:line + 4]) if line is not None else ""
                 assert "default" in block, (name, action.option_strings)
+
+
+def test_the_time_ladders_never_run_on_meshes_finer_than_the_space_ladder():
+    from orchestrate.convergence import time_mesh_level
+    from orchestrate.freefem import InputError
+
+    assert time_mesh_level(6, None) == 3 and time_mesh_level(3, None) == 2 and time_mesh_level(2, None) == 1
+    assert time_mesh_level(3, 0) == 0
+    with pytest.raises(InputError, match=r"--time-mesh-level 3: give a level in \[0, 2\]"):
+        time_mesh_level(3, 3)
