@@ -379,10 +379,9 @@ class Scene(Strict):
         try:
             return cls.model_validate(data)
         except ValidationError as error:
+            given = tuple(f"{key}{end}" for key in overrides or {} for end in ": .")  # the key, its value, below it
             lines = [describe(e) for e in error.errors()]
-            given = [f"{key}:" for key in overrides or {}] + [f"{key} " for key in overrides or {}] + \
-                    [f"{key}." for key in overrides or {}]
-            lines = [f"--set {line}" if line.startswith(tuple(given)) else line for line in lines]
+            lines = [f"--set {line}" if line.startswith(given) else line for line in lines]
             raise SceneError(f"{source}:\n" + "\n".join(lines)) from None
 
     def with_overrides(self, overrides: dict) -> "Scene":

@@ -43,6 +43,15 @@ def segment_midpoints(line) -> np.ndarray:
     return 0.5 * (line.points[ends[:, 0], 0] + line.points[ends[:, 1], 0])
 
 
+def debonding(name: str, folder) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """A strip lifted off its block (peel, precrack) at the coarse level, with no rebonding
+    (γ_r = 0): β only falls (β update of docs/model.md §6). Its β along x at four times."""
+    times = [0.5, 1.0, 1.5, 2.0]
+    result = coarse(name, folder, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})
+    assert np.all(np.diff(result.history["betaMean"]) <= 0)
+    return [(time, *bonding_along_x(result, time)) for time in times]
+
+
 def bonding_along_x(result: Result, time: float) -> tuple[np.ndarray, np.ndarray]:
     """The segment midpoints' x on Γ_C and their β at an output time, in x order."""
     line = result.fields("contact", time)
@@ -101,14 +110,10 @@ def test_the_tilted_patch_in_plane_strain_has_its_out_of_plane_stress(tmp_path):
 
 
 def test_the_peel_front_travels_from_the_lifted_end(tmp_path):
-    """No rebonding (γ_r = 0), so β only falls (β update of docs/model.md §6); the lifted right end
-    debonds first and the front (β = ½) moves left while the far end stays bonded."""
-    times = [0.5, 1.0, 1.5, 2.0]
-    result = coarse("peel", tmp_path, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})
-    assert np.all(np.diff(result.history["betaMean"]) <= 0)
+    """The lifted right end debonds first and the front (β = ½) moves left while the far end stays
+    bonded."""
     fronts = []
-    for time in times:
-        x, beta = bonding_along_x(result, time)
+    for time, x, beta in debonding("peel", tmp_path):
         assert beta[:10].min() > 0.99, f"the far end must stay bonded at t = {time}"
         fronts.append(x[beta < 0.5].min())
         if time >= 1.0:
@@ -175,12 +180,8 @@ def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):
     """β⁰ = (x < 4.5): β stays 0 on the crack at every time (β₊ in both terms of its update); the
     bonded part loses bonds from the crack tip on (its lowest β is at the tip at every output), and
     the front moves left while the far end stays bonded."""
-    times = [0.5, 1.0, 1.5, 2.0]
-    result = coarse("precrack", tmp_path, **{"body1.mesh.n": 40, "body2.mesh.n": 25, "output.times": times})
-    assert np.all(np.diff(result.history["betaMean"]) <= 0)
     fronts = []
-    for time in times:
-        x, beta = bonding_along_x(result, time)
+    for time, x, beta in debonding("precrack", tmp_path):
         assert np.all(beta[x > 4.5] == 0), f"the crack must stay open at t = {time}"
         bonded = x < 4.5
         assert beta[bonded][-1] == beta[bonded].min() < 1, f"the tip must debond first (t = {time})"
