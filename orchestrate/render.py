@@ -221,7 +221,7 @@ def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str
 def plot_contact_line(result: Result, target: Path, time: float | None = None, dpi: int = 120) -> Path:
     """β, the gap and the contact pressure along Γ_C at an output time (default: the last, else the
     nearest written); with an initial gap g0 the gap is shown as g_h − π1 g0, so that 0 is closed
-    there too."""
+    there too, and a gap within contactTol of 0 as 0."""
     times = [t for t, files in result.outputs if "contact" in files]
     chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
     line = result.fields("contact", chosen)
@@ -234,7 +234,10 @@ def plot_contact_line(result: Result, target: Path, time: float | None = None, d
     axes[0].set_ylabel("bonding β")
     initial = line.point_data.get("initialGap")
     opening = line.point_data["gap"] - (initial if initial is not None else 0)
+    # closed to within the solver's tolerance is closed: its 1e-17 round-off would fill the panel
+    opening = np.where(np.abs(opening) <= result.params.get("contactTol", 0.0), 0.0, opening)
     axes[1].plot(s, opening, "o-", ms=3)
+    steady_axis(axes[1], opening)
     axes[1].axhline(0, color="grey", lw=0.8)
     axes[1].set_ylabel(f"{'g_h − π1 g0' if initial is not None else 'gap g_h'} ({units['length']})\n(< 0: open)")
     axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
