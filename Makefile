@@ -30,8 +30,11 @@ $(VENV)/.installed: pyproject.toml
 	$(VENV)/bin/pip install -q -e ".[test]"
 	touch $@
 
+# The run goes to build/paper and is checked against the committed results/paper/summary.json, so
+# the tree stays clean on any machine; a run that does not reproduce it fails. To renew the
+# committed figures: `orchestrate run scenes/paper.toml --out results/paper --force`.
 paper: setup
-	$(PYTHON) -m orchestrate run scenes/paper.toml --out results/paper --force
+	$(PYTHON) -m orchestrate run scenes/paper.toml --out build/paper --force --check-against results/paper
 
 gallery: setup
 	$(PYTHON) -m orchestrate gallery

@@ -1,5 +1,6 @@
-"""python -m orchestrate {run,sweep,render,gallery,study,bench,reference}: scenes, parameter sweeps,
-images, the gallery, studies, the benchmark and the scene format's reference from the shell.
+"""python -m orchestrate {run,sweep,plot,render,compare,gallery,study,bench,reference}: scenes,
+parameter sweeps and their plots, images, runs compared, the gallery, studies, the benchmark and
+the scene format's reference from the shell.
 
 Each command lives in its module, which offers its own arguments (add_arguments) and handler
 (command); this file only assembles them and turns errors into one message and an exit code.
@@ -14,8 +15,8 @@ from orchestrate.freefem import InputError, SolverError
 from orchestrate.mesh import MeshError
 from orchestrate.scene import SceneError, parse_value
 
-COMMANDS = ("orchestrate.runner", "orchestrate.sweep", "orchestrate.render", "orchestrate.gallery",
-            "orchestrate.bench", "orchestrate.reference")
+COMMANDS = ("orchestrate.runner", "orchestrate.sweep", "orchestrate.plot", "orchestrate.render", "orchestrate.compare",
+            "orchestrate.gallery", "orchestrate.bench", "orchestrate.reference")
 STUDIES = ("orchestrate.convergence", "orchestrate.stability", "orchestrate.hertz")
 
 

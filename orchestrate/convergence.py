@@ -19,15 +19,13 @@ levels that ran.
 """
 from __future__ import annotations
 
-import csv
 import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import REPO, run_script
+from orchestrate.compare import distances as state_distances
 from orchestrate.manifest import facts
 from orchestrate.plots import pyplot, save
 from orchestrate.reports import QUANTITIES, LABELS, convergence_report, expected_order, write_csv
@@ -80,28 +78,10 @@ def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, spac
 
 
 def distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
-    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants.
-    The tool reads file names from its pairs file as words, so it runs in a scratch folder that
-    links every file it needs under a plain name."""
-    load_result(run), load_result(reference)
-    with tempfile.TemporaryDirectory() as scratch:
-        scratch = Path(scratch)
-        for side, folder in (("run", run), ("ref", reference)):
-            for body in (1, 2):
-                (scratch / f"{side}{body}.msh").symlink_to(folder / f"body{body}.msh")
-        lines = []
-        for j in range(1, instants + 1):
-            for side, folder, steps in (("run", run, run_steps), ("ref", reference, reference_steps)):
-                (scratch / f"{side}_{j:04d}.txt").symlink_to(folder / f"state_{j * steps // instants:04d}.txt")
-            lines.append(f"run_{j:04d}.txt ref_{j:04d}.txt")
-        (scratch / "pairs.txt").write_text(f"{len(lines)}\n" + "\n".join(lines) + "\n")
-        done = run_script(REPO / "edp" / "tools" / "errors.edp",
-                          ["-mesh1", "run1.msh", "-mesh2", "run2.msh", "-refMesh1", "ref1.msh", "-refMesh2", "ref2.msh",
-                           "-pairs", "pairs.txt", "-out", "errors.csv"], cwd=scratch)
-        if done.returncode != 0:
-            raise RuntimeError(f"errors.edp failed for {run} against {reference}: {done.error_line}")
-        with open(scratch / "errors.csv") as handle:
-            return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(handle)]
+    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants."""
+    pairs = [tuple(folder / f"state_{j * steps // instants:04d}.txt"
+                   for folder, steps in ((run, run_steps), (reference, reference_steps))) for j in range(1, instants + 1)]
+    return state_distances(load_result(run), load_result(reference), pairs)
 
 
 def slope(sizes, errors) -> float:

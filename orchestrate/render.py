@@ -249,20 +249,24 @@ def plot_contact_line(result: Result, target: Path, time: float | None = None, d
     return target
 
 
-def plot_history(result: Result, target: Path, dpi: int = 110) -> Path:
-    """The history.csv series over time."""
-    h, units = result.history, units_of(result)
+def plot_history(runs: Result | dict[str, Result], target: Path, dpi: int = 110) -> Path:
+    """The history.csv series over time; several runs ({label: result}) are drawn over each other,
+    a line style per run and a colour per series."""
+    runs = runs if isinstance(runs, dict) else {"": runs}
+    units = units_of(next(iter(runs.values())))
     panels = [("‖u‖_V", ["normV"]), (f"max von Mises ({units['stress']})", ["vmMax1", "vmMax2"]),
               ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
               (f"forces on body 1 across Γ_C ({units['force']})", ["contactForce", "forceX1", "forceY1"]),
               (f"closed length ({units['length']})", ["contactLength"])]
     figure, axes = pyplot().subplots(3, 2, figsize=(10, 8), sharex=True)
     for axis, (title, columns) in zip(axes.flat, panels):
-        for column in columns:
-            axis.plot(h["t"], h[column], label=column)
-        steady_axis(axis, np.concatenate([h[column] for column in columns]))
+        for colour, column in enumerate(columns):
+            for style, (label, result) in zip(("-", "--", ":", "-."), runs.items()):
+                h = result.history
+                axis.plot(h["t"], h[column], style, color=f"C{colour}", label=f"{column} ({label})" if label else column)
+        steady_axis(axis, np.concatenate([result.history[column] for column in columns for result in runs.values()]))
         axis.set_title(title, fontsize=10)
-        if len(columns) > 1:
+        if len(columns) > 1 or len(runs) > 1:
             axis.legend(fontsize=8)
     for axis in axes[-1]:
         axis.set_xlabel("t (s)")

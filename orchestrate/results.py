@@ -44,6 +44,24 @@ class Result:
             by_time.setdefault(time, {})[part] = self.folder / dataset.get("file")
         return sorted(by_time.items())
 
+    def mesh_file(self, body: int) -> Path:
+        """The gmsh file of a body: the run folder's copy (runs of orchestrate), else the file the
+        driver read (params_used.json; a relative name is taken from the run folder's parent)."""
+        own = self.folder / f"body{body}.msh"
+        if own.is_file():
+            return own
+        named = Path(self.params[f"meshFile{body}"])
+        path = named if named.is_absolute() else self.folder.parent / named
+        if not path.is_file():
+            raise FileNotFoundError(f"{self.folder}: the mesh of body {body} ({named}) is no longer there")
+        return path
+
+    def compare(self, other: "Result"):
+        """The distances to another run in the model's norms (orchestrate/compare.py)."""
+        from orchestrate.compare import compare
+
+        return compare(self, other)
+
     def fields(self, part: str, time: float | None = None) -> meshio.Mesh:
         """The mesh and fields of one part ("body1", "body2", "contact") at an output time
         (default: the last one written)."""

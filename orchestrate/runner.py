@@ -541,6 +541,40 @@ def add_arguments(parser) -> None:
                         help="continue an interrupted run of the same inputs from its last checkpoint (in <out>.partial)")
     parser.add_argument("--allow-unstable", action="store_true",
                         help="run even when the time step exceeds an explicit stability bound (docs/model.md §7)")
+    parser.add_argument("--check-against", metavar="SUMMARY",
+                        help="after the run, compare its final figures with another run's summary.json (a file or "
+                             "a folder holding one) to a relative 1e-8 and exit 1 if one differs: a committed "
+                             "result reproduced on this machine")
+
+
+REPRODUCED = {"rtol": 1e-8, "atol": 1e-12}  # other BLAS or CPUs change the last digits, not more
+MEASURED = {"stepSeconds"}  # times, not results
+
+
+def differences(summary: dict, expected: dict) -> list[str]:
+    """The final figures (and iterations per step) of two summaries that differ beyond REPRODUCED."""
+    def figures(data):
+        return {**{name: value for name, value in data["final"].items() if name not in MEASURED},
+                "contactItersPerStep": data.get("contactItersPerStep")}
+
+    found, wanted = figures(summary), figures(expected)
+    return [f"{name}: {found.get(name)} here, {value} expected" for name, value in wanted.items()
+            if found.get(name) is None or value is None
+            or abs(found[name] - value) > REPRODUCED["rtol"] * abs(value) + REPRODUCED["atol"]]
+
+
+def check_against(result: Result, expected: str) -> int:
+    path = Path(expected)
+    path = path / "summary.json" if path.is_dir() else path
+    if not path.is_file():
+        raise FileNotFoundError(f"--check-against {expected}: no summary.json there")
+    differing = differences(json.loads((result.folder / "summary.json").read_text()), json.loads(path.read_text()))
+    for line in differing:
+        print(f"differs from {path}: {line}")
+    if not differing:
+        print(f"reproduces {path}: every final figure within a relative {REPRODUCED['rtol']:g} "
+              f"(absolute {REPRODUCED['atol']:g})")
+    return 1 if differing else 0
 
 
 def command(options) -> int:
@@ -558,4 +592,4 @@ def command(options) -> int:
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
     for warning in json.loads((result.folder / "summary.json").read_text())["warnings"]:
         print(f"warning: {warning}")
-    return 0
+    return check_against(result, options.check_against) if options.check_against else 0

@@ -48,7 +48,7 @@ class Body:
 BODIES = (Body(1000, 0.3, 30, 20, 0, 0.01, 2000, 0.002), Body(600, 0.25, 10, 15, 1, 0.02, 3000, 0.0))
 
 
-def creep_recursion(zeta_min=1e-3, L=1.0):
+def creep_recursion(zeta_min=1e-3, L=1.0, steps=N):
     """Per step n: uniform strains (exx, eyy) per body, pressure p, damage ζ per body, and the
     output stress σⁿ = A(εⁿ − εⁿ⁻¹)/k + ζⁿ G εⁿ, from the scheme's equations:
       σxx = [μ tr Δ + η Δxx]/k + ζⁿ⁻¹ (a tr ε + b exx)ⁿ⁻¹ = 0,
@@ -56,11 +56,11 @@ def creep_recursion(zeta_min=1e-3, L=1.0):
       H1 eyy1 + H2 eyy2 = −PUSH_RATE tⁿ  (contact closed: the interface moves as one),
       ζⁿ = clip(ζⁿ⁻¹ + k φ(εⁿ⁻¹, ζⁿ⁻¹), 0, 1).
     """
-    k = T / N
+    k = T / steps
     strain = np.zeros((2, 2))
     zeta = np.ones(2)
-    steps = []
-    for n in range(1, N + 1):
+    history = []
+    for n in range(1, steps + 1):
         matrix, rhs = np.zeros((5, 5)), np.zeros(5)
         for i, body in enumerate(BODIES):
             a, b = body.lame
@@ -89,18 +89,22 @@ def creep_recursion(zeta_min=1e-3, L=1.0):
                            (body.mu * (dxx + dyy) + body.eta * dyy) / k + new_zeta[i] * (a * (exx + eyy) + b * eyy)))
         zeta = new_zeta
         norm_v = np.sqrt(sum(HEIGHT[i] * WIDTH * np.sum(strain[i] ** 2) for i in range(2)))
-        steps.append(dict(pressure=pressure, zeta=zeta.copy(), stress=np.array(stress), normV=norm_v))
-    return steps
+        history.append(dict(pressure=pressure, zeta=zeta.copy(), stress=np.array(stress), normV=norm_v,
+                            strain=strain.copy()))
+    return history
 
 
 @pytest.fixture(scope="module")
 def blocks(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("blocks")
-    upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=7)
-    lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=11)
-    return solve_ok(folder / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", N,
-                    "-outTimes", "all", "-contactTol", 1e-14, *BODIES[0].flags(1), *BODIES[1].flags(2),
-                    scene=SCENES / "blocks.idp")
+    return blocks_run(tmp_path_factory.mktemp("blocks"), n=(7, 11), steps=N)
+
+
+def blocks_run(folder, n, steps):
+    upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=n[0])
+    lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=n[1])
+    return solve_ok(folder / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", steps,
+                    "-outTimes", "all", "-outFields", "bodies,stress,contact,state", "-contactTol", 1e-14,
+                    *BODIES[0].flags(1), *BODIES[1].flags(2), scene=SCENES / "blocks.idp")
 
 
 def test_meshes_do_not_match(blocks):
@@ -143,3 +147,40 @@ def test_creep_follows_the_scalar_recursion(blocks):
             np.testing.assert_allclose(cell_field(mesh, "sigma22"), syy, rtol=1e-10)
             np.testing.assert_allclose(cell_field(mesh, "sigma11"), sxx, rtol=0, atol=1e-10 * scale)
             np.testing.assert_allclose(cell_field(mesh, "sigma12"), 0.0, rtol=0, atol=1e-10 * scale)
+
+
+def test_compare_is_exact_on_meshes_that_do_not_nest_when_the_fields_are_linear(blocks, tmp_path):
+    """The creep's u is linear and ζ constant in each body, so interpolating the coarser run onto the
+    finer run's meshes loses nothing although they do not nest: the distances at the common times
+    (every step of N = 25, every other step of N = 50) are those of the two recursions' uniform strains and
+    damage, times the bodies' areas."""
+    from orchestrate.compare import compare
+
+    other = blocks_run(tmp_path, n=(5, 8), steps=2 * N)
+    comparison = compare(blocks, other)
+    assert comparison.reference == "a" and not comparison.nested
+    fine, coarse = creep_recursion(steps=N), creep_recursion(steps=2 * N)
+    np.testing.assert_allclose([row["t"] for row in comparison.rows], np.arange(1, N + 1) * T / N, rtol=1e-12)
+    areas = np.array(HEIGHT) * WIDTH
+    for row in comparison.rows:
+        a, b = fine[round(row["t"] * N) - 1], coarse[round(row["t"] * 2 * N) - 1]
+        strain_distance = np.sqrt(np.sum(areas[:, None] * (a["strain"] - b["strain"]) ** 2))
+        assert row["errorV"] == pytest.approx(strain_distance, rel=1e-8)
+        assert row["errorZeta"] == pytest.approx(np.sqrt(np.sum(areas * (a["zeta"] - b["zeta"]) ** 2)), rel=1e-8)
+        assert row["normV"] == pytest.approx(a["normV"], rel=1e-10)
+        assert row["errorBeta"] == 0  # no glue: β⁰ = 1 in both
+    assert comparison.maximum("errorV") > 1e-3 * comparison.rows[-1]["normV"], "the runs should differ"
+
+
+def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
+    from orchestrate.compare import common_states, nested_in
+    from orchestrate.results import Result
+
+    square = gmsh_mesh("meshes/rectangle.geo", tmp_path / "square.msh", x1=2, y0=0, y1=1, n=4)
+    taller = gmsh_mesh("meshes/rectangle.geo", tmp_path / "taller.msh", x1=2, y0=0, y1=1.5, n=4)
+    with pytest.raises(RuntimeError, match="not meshes of the same body"):
+        nested_in(square, taller)
+    assert nested_in(square, square)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(RuntimeError, match='saved no state.*output.fields including "state"'):
+        common_states(blocks, Result(tmp_path / "empty"))

@@ -80,3 +80,24 @@ def test_the_python_layer_suggests_its_own_flags(tmp_path):
     with pytest.raises(SolverError) as error:
         run(REPO / "scenes" / "paper.toml", tmp_path / "run", {"time.N": 5, "output.images": False})
     assert "--allow-unstable" in error.value.message and "-allowUnstable 1" not in error.value.message
+
+
+def test_bin_ff_ends_a_failure_with_its_error_line_and_names_a_missing_scene(tmp_path):
+    """bin/ff, the users' way to run the driver: the exit code of FreeFem++, its one ERROR line
+    last (FreeFEM's call trace after exit(3) dropped), and a -DSCENE file that is not there named
+    before FreeFEM's lexer fails on it without a name."""
+    import subprocess
+
+    from orchestrate.freefem import REPO
+
+    def ff(*arguments):
+        return subprocess.run([str(REPO / "bin" / "ff"), "edp/main.edp", *arguments], cwd=REPO,
+                              capture_output=True, text=True)
+
+    done = ff("-T", "-1", "-out", str(tmp_path / "run"))
+    assert done.returncode == 3
+    assert done.stdout.splitlines()[-1] == "ERROR: parameter T = -1 is out of range: allowed T in (0, inf)"
+    missing = ff("-DSCENE=nowhere.idp")
+    assert missing.returncode == 3 and "the -DSCENE file 'nowhere.idp' is not there" in missing.stderr
+    shown = ff("-help")
+    assert shown.returncode == 0 and "-outFields (text, default 'bodies,stress,contact,state')" in shown.stdout

@@ -69,7 +69,7 @@ BAD = [
     ('[[body2.boundary]]\ntype = "clamped"\nlabel = 3', '[[body2.boundary]]\ntype = "clamped"\nlabel = 4',
      ["body2", "prescribed twice"]),
     ('times = "final"', "times = [0.5, 2.0]", ["output.times: 2.0 is outside (0, T = 1.0]"]),
-    ('fields = ["bodies", "stress", "contact"]', 'fields = ["bodies", "strain"]', ["output.fields.1 = 'strain'"]),
+    ('fields = ["bodies", "stress", "contact", "state"]', 'fields = ["bodies", "strain"]', ["output.fields.1 = 'strain'"]),
     ('linearSolver = "CHOLMOD"', 'linearSolver = "PETSc"', ["solver.linearSolver = 'PETSc'", "'CHOLMOD'"]),
     ("contactTol = 1e-10", "contactTol = 0.0", ["solver.contactTol = 0.0", "greater than 0"]),
     ("[time]", "time = 3\n[timee]", ["time: Input should be a valid dictionary", "timee: unknown key"]),

@@ -84,3 +84,29 @@ def test_the_time_ladders_never_run_on_meshes_finer_than_the_space_ladder():
     assert time_mesh_level(3, 0) == 0
     with pytest.raises(InputError, match=r"--time-mesh-level 3: give a level in \[0, 2\]"):
         time_mesh_level(3, 3)
+
+
+def test_compare_of_two_levels_gives_the_time_ladders_distances(quick, tmp_path, capsys):
+    """`compare` of the time ladder's coarsest level with the next level and with the ladder's
+    reference run measures what the study measured between them (at the same instants: the
+    coarsest level's steps); a run compared with itself is at distance 0."""
+    from orchestrate.cli import main
+    from orchestrate.compare import compare
+    from orchestrate.results import load_result
+
+    out, table = quick
+    rows = [row for row in table if row["ladder"] == "time"]
+    by_steps = {load_result(folder).params["N"]: folder for folder in (out / "runs" / "time").iterdir()}
+    coarse, middle = by_steps[rows[0]["N"]], by_steps[rows[1]["N"]]
+    [reference] = (out / "runs" / "time-reference").iterdir()
+    to_next, to_reference = compare(coarse, middle), compare(coarse, reference)
+    assert to_next.nested and to_next.reference == "b" and to_next.parameters["N"] == (rows[0]["N"], rows[1]["N"])
+    for quantity, column in (("errorV", "nextV"), ("errorZeta", "nextZeta"), ("errorBeta", "nextBeta")):
+        assert to_next.maximum(quantity) == pytest.approx(rows[0][column], rel=1e-12)
+        assert to_reference.maximum(quantity) == pytest.approx(rows[0][quantity], rel=1e-12)
+    assert to_reference.relative("errorV") == pytest.approx(rows[0]["relativeErrorV"], rel=1e-12)
+    itself = compare(middle, middle)
+    assert all(row[quantity] == 0 for row in itself.rows for quantity in ("errorV", "errorZeta", "errorBeta"))
+    assert main(["compare", str(coarse), str(middle), "--out", str(tmp_path)]) == 0
+    assert "the figures are exact" in capsys.readouterr().out
+    assert (tmp_path / "history.png").stat().st_size > 10000 and (tmp_path / "comparison.csv").read_text().count("\n") == 1 + rows[0]["N"]

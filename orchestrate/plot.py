@@ -1,0 +1,116 @@
+"""A figure of a sweep against a swept value: python -m orchestrate plot SWEEP --y contactForce.
+
+It reads the sweep's table (sweep.csv, orchestrate/sweep.py): the swept keys are its columns
+before `folder`. The figure (`--y`: a run figure such as normV, or wallSeconds) is drawn against
+one swept key (`--x`, default the first), one curve per combination of the other swept values.
+Runs that did not complete are left out and named under the plot. Numeric values are placed by
+value; others (expressions, words) one after the other, in the order the sweep listed them.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from orchestrate.freefem import InputError
+from orchestrate.plots import pyplot, save
+from orchestrate.render import steady_axis
+from orchestrate.sweep import FIGURES
+
+DONE = ("completed", "skipped (complete)")
+MEASURED = (*FIGURES, "wallSeconds", "contactItersPerStep")
+
+
+def read_sweep(folder: str | Path) -> tuple[list[str], list[dict]]:
+    """The swept keys and the rows of a sweep folder's sweep.csv."""
+    path = Path(folder) / "sweep.csv"
+    if not path.is_file():
+        raise FileNotFoundError(f"{folder} holds no sweep.csv: give the --out folder of a sweep")
+    with open(path, newline="") as handle:
+        reader = csv.DictReader(handle)
+        rows = list(reader)
+        keys = reader.fieldnames[:reader.fieldnames.index("folder")]
+    return keys, rows
+
+
+def number(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+def series(keys: list[str], rows: list[dict], x: str, y: str) -> tuple[dict, dict | None, list[str]]:
+    """The curves of `y` against `x`: {label of the other swept values: [(position, value)]} in
+    position order, the tick labels by position when `x` is not numeric (else None), and the
+    folders of the runs left out."""
+    if x not in keys:
+        raise InputError(f"--x {x}: not a swept key of the sweep (swept: {', '.join(keys)})")
+    if y not in MEASURED:
+        raise InputError(f"--y {y}: not a figure of sweep.csv (allowed: {', '.join(MEASURED)})")
+    others = [key for key in keys if key != x]
+    done = [row for row in rows if row["status"] in DONE and number(row[y]) is not None]
+    positions = {value: index for index, value in enumerate(dict.fromkeys(row[x] for row in rows))}
+    numeric = all(number(value) is not None for value in positions)
+    curves = {}
+    for row in done:
+        label = ", ".join(f"{key} = {row[key]}" for key in others)
+        curves.setdefault(label, []).append((number(row[x]) if numeric else positions[row[x]], number(row[y])))
+    ticks = None if numeric else {index: value for value, index in positions.items()}
+    return {label: sorted(points) for label, points in curves.items()}, ticks, [row["folder"] for row in rows if row not in done]
+
+
+def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | Path | None = None,
+               log: str = "", dpi: int = 110) -> Path:
+    """Draw `y` of every completed run against the swept key `x` (default: the first) into `target`
+    (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg); log is "", "x", "y" or "xy"."""
+    keys, rows = read_sweep(folder)
+    x = x or keys[0]
+    curves, ticks, left_out = series(keys, rows, x, y)
+    figure, axis = pyplot().subplots(figsize=(7, 4.5))
+    for label, points in curves.items():
+        axis.plot(*zip(*points), "o-", label=label or None)
+    axis.set_xscale("log" if "x" in log and ticks is None else "linear")
+    positions = sorted({position for points in curves.values() for position, _ in points})
+    if ticks is not None:
+        axis.set_xticks(list(ticks), list(ticks.values()), rotation=20, ha="right", fontsize=8)
+    elif len(positions) <= 12:  # few values: a tick at each, in plain numbers (no 2×10¹ on a log axis)
+        axis.set_xticks(positions, [f"{value:g}" for value in positions])
+        axis.minorticks_off()
+    values = [value for points in curves.values() for _, value in points]
+    if "y" in log:
+        axis.set_yscale("log")
+    elif values:
+        steady_axis(axis, values)
+    axis.set_xlabel(x)
+    axis.set_ylabel(y)
+    axis.grid(True, alpha=0.3)
+    if len(curves) > 1:
+        axis.legend(fontsize=8)
+    if left_out:
+        axis.set_title(f"left out (did not complete): {', '.join(left_out)}"[:120], fontsize=8)
+    target = Path(target) if target else Path(folder) / f"{y}-vs-{x}.png"
+    save(figure, target, dpi=dpi)
+    return target
+
+
+# --- command line ---------------------------------------------------------------------------
+
+NAME, HELP = "plot", "draw a figure of a sweep (sweep.csv) against a swept value"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("sweep", metavar="SWEEP", help="a sweep folder (the --out of `sweep`)")
+    parser.add_argument("--y", required=True, choices=MEASURED, metavar="FIGURE",
+                        help=f"the figure drawn: one of {', '.join(MEASURED)}")
+    parser.add_argument("--x", help="the swept key along the axis (default: the first swept key); the other swept "
+                                    "keys give one curve per combination")
+    parser.add_argument("--log", choices=("", "x", "y", "xy"), default="", help="logarithmic axes")
+    parser.add_argument("--out", help="the image file, .png, .pdf or .svg (default: <SWEEP>/<FIGURE>-vs-<KEY>.png)")
+
+
+def command(options) -> int:
+    target = plot_sweep(options.sweep, options.y, options.x, options.out, options.log)
+    print(f"image: {target}")
+    return 0

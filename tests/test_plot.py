@@ -1,0 +1,47 @@
+"""`plot SWEEP`: a figure of sweep.csv against a swept value, one curve per combination of the
+other swept values, runs that did not complete left out (a table written by hand, so that the
+expected curves are known without running anything)."""
+import pytest
+
+from orchestrate.cli import main
+from orchestrate.freefem import InputError
+from orchestrate.plot import plot_sweep, read_sweep, series
+from orchestrate.sweep import write_table
+
+LOADS = ("-10*min(t, 1)", "atan2(y, x)*t")
+
+
+@pytest.fixture
+def table(tmp_path):
+    rows = [{"time.N": 40, "body1.boundary.0.fy": LOADS[0], "folder": "a", "status": "completed", "normV": 2.0},
+            {"time.N": 20, "body1.boundary.0.fy": LOADS[0], "folder": "b", "status": "skipped (complete)", "normV": 1.0},
+            {"time.N": 20, "body1.boundary.0.fy": LOADS[1], "folder": "c", "status": "failed", "error": "SolverError"},
+            {"time.N": 40, "body1.boundary.0.fy": LOADS[1], "folder": "d", "status": "completed", "normV": 3.0}]
+    write_table(tmp_path / "sweep.csv", rows, ["time.N", "body1.boundary.0.fy"])
+    return tmp_path
+
+
+def test_curves_per_other_value_in_order_and_failures_left_out(table):
+    keys, rows = read_sweep(table)
+    assert keys == ["time.N", "body1.boundary.0.fy"]
+    curves, ticks, left_out = series(keys, rows, "time.N", "normV")
+    assert curves == {f"body1.boundary.0.fy = {LOADS[0]}": [(20.0, 1.0), (40.0, 2.0)],
+                      f"body1.boundary.0.fy = {LOADS[1]}": [(40.0, 3.0)]}
+    assert ticks is None and left_out == ["c"]
+
+
+def test_expressions_along_the_axis_in_the_sweeps_order(table):
+    curves, ticks, _ = series(*read_sweep(table), "body1.boundary.0.fy", "normV")
+    assert ticks == {0: LOADS[0], 1: LOADS[1]}
+    assert curves == {"time.N = 40": [(0, 2.0), (1, 3.0)], "time.N = 20": [(0, 1.0)]}
+
+
+def test_the_image_and_the_errors(table, capsys):
+    target = plot_sweep(table, "normV", log="y")
+    assert target == table / "normV-vs-time.N.png" and target.stat().st_size > 5000
+    assert main(["plot", str(table), "--y", "normV", "--x", "body1.boundary.0.fy", "--out", str(table / "x.svg")]) == 0
+    assert (table / "x.svg").read_text().startswith("<?xml")
+    with pytest.raises(InputError, match=r"--x glue.gammaNu: not a swept key .*swept: time.N, body1.boundary.0.fy"):
+        series(*read_sweep(table), "glue.gammaNu", "normV")
+    assert main(["plot", str(table.parent / "nowhere"), "--y", "normV"]) == 2
+    assert "holds no sweep.csv" in capsys.readouterr().err
