@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 
 from orchestrate.freefem import InputError, SolverError
@@ -20,16 +21,27 @@ COMMANDS = ("orchestrate.runner", "orchestrate.sweep", "orchestrate.plot", "orch
 STUDIES = ("orchestrate.convergence", "orchestrate.stability", "orchestrate.hertz")
 
 
+# KEY=VALUE split at the first '=' outside brackets: a key may name a boundary condition by its
+# label, body1.boundary[label=4].fy (scene.py, LABELLED).
+ASSIGNMENT = re.compile(r"((?:[^=\[]|\[[^\]]*\])+)=(.*)", re.S)
+
+
+def split_assignment(item: str, option: str, form: str, example: str) -> tuple[str, str]:
+    """`KEY=VALUE` as its key and value text, both stripped; else an error showing the form."""
+    match = ASSIGNMENT.fullmatch(item)
+    if not match or not match[1].strip():
+        raise SceneError(f"{option} {item!r}: expected {form}, e.g. {option} {example}")
+    return match[1].strip(), match[2].strip()
+
+
 def parse_assignments(items: list[str], option: str) -> dict:
     """key=value strings as a dict (values read as TOML would: numbers, booleans, strings)."""
     assignments = {}
     for item in items:
-        key, separator, value = item.partition("=")
-        if not separator or not key:
-            raise SceneError(f"{option} {item!r}: expected key=value, e.g. {option} time.N=80")
-        if key.strip() in assignments:
-            raise SceneError(f"{option} {key.strip()} is given twice: give it once")
-        assignments[key.strip()] = parse_value(value.strip())
+        key, value = split_assignment(item, option, "key=value", "time.N=80")
+        if key in assignments:
+            raise SceneError(f"{option} {key} is given twice: give it once")
+        assignments[key] = parse_value(value)
     return assignments
 
 

@@ -168,7 +168,10 @@ def page() -> str:
         "runs, with the key and what is allowed. Ranges are intervals ( ) open, [ ] closed. Units are SI "
         "(any consistent set works: docs/model.md §12). Expressions are text in the whitelist grammar of "
         "README.md (loads in x, y, t; initial data in x, y). `--set key=value` overrides any key "
-        "(`--set body1.material.E=2000`).",
+        "(`--set body1.material.E=2000`); a boundary condition is named by its label, "
+        "`--set 'body1.boundary[label=4].fy=-20*t'`, or by its 0-based index in the list, "
+        "`body1.boundary.1.fy` (the label is to prefer: it does not change when the conditions are reordered). "
+        "`sweep --grid` and `--grid-file` take the same keys.",
         "",
         "## The run",
         "",

@@ -534,7 +534,9 @@ NAME, HELP = "run", "run a scene (TOML) into a folder"
 def add_arguments(parser) -> None:
     parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000")
+                        help="override a scene value, e.g. --set time.N=80 --set body1.material.E=2000; a boundary "
+                             "condition by its label, --set 'body1.boundary[label=4].fy=-20*min(t, 0.5)' (or its "
+                             "0-based index, body1.boundary.1.fy)")
     parser.add_argument("--out", help="output folder (default results/<scene name> in the current folder)")
     parser.add_argument("--force", action="store_true", help="replace the output folder if it holds a run")
     parser.add_argument("--resume", action="store_true",

@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import re
 import tomllib
 import unicodedata
 from pathlib import Path
@@ -359,30 +360,16 @@ class Scene(Strict):
     @classmethod
     def load(cls, path: str | Path, overrides: dict | None = None) -> "Scene":
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text())
-        except FileNotFoundError:
-            raise SceneError(f"scene file {path} not found") from None
-        except IsADirectoryError:
-            raise SceneError(f"scene {path} is a folder: give a scene file, e.g. scenes/paper.toml") from None
-        except UnicodeDecodeError as error:
-            raise SceneError(f"{path}: not UTF-8 text (byte {error.start}): a scene is a TOML file") from None
-        except OSError as error:
-            raise SceneError(f"scene file {path} cannot be read: {error.strerror}") from None
-        except tomllib.TOMLDecodeError as error:
-            raise SceneError(f"{path}: not valid TOML: {error}") from None
-        return cls.from_dict(data, overrides, source=str(path))
+        return cls.from_dict(read_toml(path, "scene"), overrides, source=str(path))
 
     @classmethod
     def from_dict(cls, data: dict, overrides: dict | None = None, source: str = "scene") -> "Scene":
-        data = apply_overrides(data, overrides or {})
+        overrides = overrides or {}
         try:
-            return cls.model_validate(data)
+            return cls.model_validate(apply_overrides(data, overrides))
         except ValidationError as error:
-            given = tuple(f"{key}{end}" for key in overrides or {} for end in ": .")  # the key, its value, below it
-            lines = [describe(e) for e in error.errors()]
-            lines = [f"--set {line}" if line.startswith(given) else line for line in lines]
-            raise SceneError(f"{source}:\n" + "\n".join(lines)) from None
+            given = {field: key for key, field in resolve_keys(data, overrides).items()}
+            raise SceneError(f"{source}:\n" + "\n".join(as_given(describe(e), given) for e in error.errors())) from None
 
     def with_overrides(self, overrides: dict) -> "Scene":
         return Scene.from_dict(self.model_dump(mode="json"), overrides)
@@ -401,20 +388,104 @@ def parse_value(text: str):
         return text
 
 
-def apply_overrides(data: dict, overrides: dict) -> dict:
-    """Set dotted keys (`time.N`, `body1.material.E`, `body1.boundary.2.fy`) in a copy of data."""
+def read_toml(path: Path, kind: str) -> dict:
+    """A TOML file (a scene, a sweep's grid) as data; any reason it cannot be read is a SceneError."""
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise SceneError(f"{kind} file {path} not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"{kind} {path} is a folder: give a {kind} file (TOML)") from None
+    except UnicodeDecodeError as error:
+        raise SceneError(f"{path}: not UTF-8 text (byte {error.start}): a {kind} is a TOML file") from None
+    except OSError as error:
+        raise SceneError(f"{kind} file {path} cannot be read: {error.strerror}") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path}: not valid TOML: {error}") from None
+
+
+# An element of a list of tables by its boundary label: body1.boundary[label=4] is the one
+# condition of body1 on label 4, wherever it stands in the list (the index form, body1.boundary.1,
+# changes meaning when the scene's conditions are reordered).
+LABELLED = re.compile(r"([A-Za-z_][A-Za-z_0-9]*)\[label=([0-9]+)\]")
+KEY_FORMS = "NAME[label=N] (the condition on boundary label N, e.g. body1.boundary[label=4].fy) or NAME.I " \
+            "(its 0-based index, e.g. body1.boundary.1.fy)"
+
+
+def resolve_keys(data: dict, keys, option: str = "--set") -> dict[str, str]:
+    """Each override key → the same key with every element named by its label written as its index
+    in `data` (body1.boundary[label=4].fy → body1.boundary.1.fy). An unknown label, a label of
+    several conditions, or two keys naming one value are refused, naming the key."""
+    fields: dict[str, str] = {}
+    for key in keys:
+        field = _by_index(data, key, option)
+        other = next((given for given, known in fields.items() if known == field), None)
+        if other is not None:
+            raise SceneError(f"{option} {other} and {key} name the same value ({field}): give it once")
+        fields[key] = field
+    return fields
+
+
+def _by_index(data: dict, key: str, option: str) -> str:
+    node, parts = data, []
+    for part in key.split("."):
+        if "[" not in part and "]" not in part:
+            parts.append(part)
+            if isinstance(node, list):
+                node = node[int(part)] if part.isdigit() and int(part) < len(node) else None
+            else:
+                node = node.get(part) if isinstance(node, dict) else None
+            continue
+        match = LABELLED.fullmatch(part)
+        if not match:
+            raise SceneError(f"{option} {key}: '{part}' is no key: an element of a list is {KEY_FORMS}")
+        name, label, where = match[1], int(match[2]), ".".join([*parts, match[1]])
+        items = node.get(name) if isinstance(node, dict) else None
+        if not isinstance(items, list):
+            raise SceneError(f"{option} {key}: {_no_list(node, name, where)}")
+        index = _labelled(items, label, f"{option} {key}: ", where)
+        parts += [name, str(index)]
+        node = items[index]
+    return ".".join(parts)
+
+
+def _no_list(node, name: str, where: str) -> str:
+    if isinstance(node, dict) and name in node:
+        return f"{where} is not a list: [label=N] picks one of a list of boundary conditions (bodyN.boundary)"
+    close = difflib.get_close_matches(name, list(node), n=1, cutoff=0.5) if isinstance(node, dict) else []
+    return f"the scene has no {where}" + (f" (did you mean '{close[0]}'?)" if close else "")
+
+
+def _labelled(items: list, label: int, context: str, where: str) -> int:
+    """The index of the one element of `items` on `label`; an error naming each element otherwise."""
+    found = [i for i, item in enumerate(items) if isinstance(item, dict) and type(item.get("label")) is int
+             and item["label"] == label]
+    if len(found) == 1:
+        return found[0]
+    held = ", ".join(f"{i} {item.get('type', '?')} on label {item.get('label', '?')}" if isinstance(item, dict)
+                     else f"{i} {item!r}" for i, item in enumerate(items))
+    if not found:
+        raise SceneError(f"{context}no condition of {where} is on label {label} (its conditions: {held})")
+    raise SceneError(f"{context}label {label} carries {len(found)} conditions of {where} ({held}): address "
+                     f"one by its 0-based index, e.g. {where}.{found[0]}")
+
+
+def apply_overrides(data: dict, overrides: dict, option: str = "--set") -> dict:
+    """Set dotted keys (`time.N`, `body1.material.E`, `body1.boundary[label=4].fy`,
+    `body1.boundary.2.fy`) in a copy of data."""
+    fields = resolve_keys(data, overrides, option)
     data = copy.deepcopy(data)
     for key, value in overrides.items():
-        parts = key.split(".")
+        parts = fields[key].split(".")
         node = data
         for depth, part in enumerate(parts):
             last = depth == len(parts) - 1
             if isinstance(node, list):
                 if not part.isdigit() or int(part) >= len(node):
-                    raise SceneError(f"--set {key}: '{part}' is not an index of a list of {len(node)}")
+                    raise SceneError(f"{option} {key}: '{part}' is not an index of a list of {len(node)}")
                 part = int(part)
             elif not isinstance(node, dict):
-                raise SceneError(f"--set {key}: '{'.'.join(parts[:depth])}' holds a value, not a table")
+                raise SceneError(f"{option} {key}: '{'.'.join(parts[:depth])}' holds a value, not a table")
             if last:
                 node[part] = value
                 if key == "time.N" and value != "auto" and "time.targetError" not in overrides:
@@ -424,6 +495,15 @@ def apply_overrides(data: dict, overrides: dict) -> dict:
                     node[part] = {}
                 node = node[part]
     return data
+
+
+def as_given(line: str, given: dict[str, str]) -> str:
+    """A message line about an overridden value (`given`: its key by index → the key as written),
+    named as the override it came from, not as a line of the scene file."""
+    for field, key in given.items():
+        if line.startswith(tuple(f"{field}{end}" for end in ": .")):  # the key, its value, below it
+            return f"--set {key}{line[len(field):]}"
+    return line
 
 
 # --- messages --------------------------------------------------------------------------------

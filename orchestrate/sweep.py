@@ -1,6 +1,10 @@
 """Parameter sweeps: the cartesian product of scene overrides, one run folder each, on
 dask.distributed (a LocalCluster by default, an existing cluster given its scheduler address).
 
+The grid's keys are those of --set (a boundary condition by its label, body1.boundary[label=4].fy,
+or by its index); its values come as a TOML list per key, which takes any value (expressions with
+commas among them), as plain values split at commas, or from a grid file (TOML, a list per key).
+
 Each combination has its own folder: a readable prefix of its values and a hash of the whole
 combination, so two combinations never share one. A failed run is recorded with its error and the
 others go on. A folder is skipped only when its manifest is whole and records the same inputs
@@ -15,27 +19,102 @@ import itertools
 import json
 import logging
 import re
+import tomllib
 from pathlib import Path
 
+from orchestrate.cli import split_assignment
 from orchestrate.manifest import IncompleteRun, verify_manifest
 from orchestrate.reports import write_csv
-from orchestrate.scene import Scene, SceneError, parse_value
+from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
 
 FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
            "vmMax1", "vmMax2", "gapMax")
 
 
+LIST_EXAMPLE = '\'body1.boundary[label=4].fy=["-10*min(t, 0.5)", "-20*t"]\''
+GRID_FORMS = "KEY=[V1, V2, ...] (a TOML list: any values, expressions as strings in quotes) or KEY=V1,V2,... " \
+             "(plain values without commas)"
+
+
 def parse_grid(items: list[str]) -> dict[str, list]:
-    """["time.N=20,40", "glue.gammaNu=0,1"] → {"time.N": [20, 40], "glue.gammaNu": [0, 1]}."""
+    """["time.N=20,40", 'body1.boundary[label=4].fy=["-10*min(t, 1)", "-20*t"]'] →
+    {"time.N": [20, 40], "body1.boundary[label=4].fy": ["-10*min(t, 1)", "-20*t"]}."""
     grid = {}
     for item in items:
-        key, separator, values = item.partition("=")
-        if not separator or not key.strip() or not values.strip():
-            raise SceneError(f"--grid {item!r}: expected key=value1,value2,... e.g. --grid time.N=20,40")
-        if key.strip() in grid:
-            raise SceneError(f"--grid {key.strip()} is given twice: list all its values in one --grid")
-        grid[key.strip()] = [parse_value(value.strip()) for value in values.split(",")]
+        key, text = split_assignment(item, "--grid", "key=value1,value2,... or key=[value1, value2, ...]",
+                                     "time.N=20,40")
+        if key in grid:
+            raise SceneError(f"--grid {key} is given twice: list all its values in one --grid")
+        grid[key] = grid_values(key, text)
     return grid
+
+
+def grid_values(key: str, text: str) -> list:
+    """The values of one --grid: a TOML array, or plain values split at every comma, where a piece
+    that cannot stand alone (a bracket or quote not closed: `min(t, 1)` cut in two) is refused
+    rather than swept as two wrong values."""
+    if text.startswith("["):
+        try:
+            return tomllib.loads(f"values = {text}")["values"]
+        except tomllib.TOMLDecodeError as error:
+            raise SceneError(f"--grid {key}={text}: not a TOML list ({error}); write {GRID_FORMS}, "
+                             f"e.g. --grid {LIST_EXAMPLE}") from None
+    pieces = [piece.strip() for piece in text.split(",")]
+    for piece in pieces:
+        if not piece or cut_short(piece):
+            what = "an empty value" if not piece else f"'{piece}' is part of a value cut at a comma"
+            raise SceneError(f"--grid {key}={text}: {what}; KEY=V1,V2 splits at every comma: give the values as a "
+                             f"TOML list, --grid '{key}=[V1, V2, ...]', e.g. --grid {LIST_EXAMPLE}")
+    return [parse_value(piece) for piece in pieces]
+
+
+def cut_short(piece: str) -> bool:
+    """A bracket or a quote of the text left open (or closed without being opened)."""
+    return any(piece.count(opening) != piece.count(closing) for opening, closing in ("()", "[]", "{}")) \
+        or any(piece.count(quote) % 2 for quote in "\"'")
+
+
+def read_grid_file(path: str | Path) -> dict[str, list]:
+    """A grid file: TOML whose keys are scene keys and values lists, `"body1.boundary[label=4].fy" =
+    ["-10*t", "-20*t"]` one a line, or in tables (`[glue]` then `gammaNu = [0, 1]`); keys are
+    joined by dots down to each list, in the file's order."""
+    path = Path(path)
+    grid: dict[str, list] = {}
+    _flatten(read_toml(path, "grid"), "", grid, path)
+    return grid
+
+
+def _flatten(table: dict, prefix: str, grid: dict, path: Path) -> None:
+    for name, value in table.items():
+        key = prefix + name
+        if isinstance(value, dict):
+            _flatten(value, f"{key}.", grid, path)
+        elif not isinstance(value, list):
+            raise SceneError(f"grid file {path}: {key} = {value!r} is not a list: give its values as one, "
+                             f"e.g. {key} = [{value!r}, ...] (a list of lists to sweep a list)")
+        elif key in grid:
+            raise SceneError(f"grid file {path}: {key} is given twice: list all its values once")
+        else:
+            grid[key] = value
+
+
+def grid_of(items: list[str], path: str | Path | None) -> dict[str, list]:
+    """The grid of the command line: the grid file's keys, then those of --grid; a key in both is
+    refused."""
+    grid = read_grid_file(path) if path else {}
+    for key, values in parse_grid(items).items():
+        if key in grid:
+            raise SceneError(f"--grid {key} is also in --grid-file {path}: give its values in one place")
+        grid[key] = values
+    if not grid:
+        raise SceneError(f"nothing to sweep: give --grid {GRID_FORMS}, or --grid-file FILE")
+    return grid
+
+
+def grid_fields(scene: str | Path, grid: dict[str, list], base: dict | None) -> dict[str, str]:
+    """Each grid key → that key by index in the scene with `base` applied, which refuses, before
+    anything runs, a label no condition or several carry and two keys naming one value."""
+    return resolve_keys(apply_overrides(read_toml(Path(scene), "scene"), base or {}), grid, "--grid")
 
 
 def require_distinct(grid: dict[str, list]) -> None:
@@ -96,21 +175,25 @@ def make_client(workers: int, scheduler: str | None):
     return Client(cluster)
 
 
-def resolved_values(scene: Scene, assignment: dict) -> dict:
-    """The assignment's values as the validated scene holds them (1 for a real is 1.0), so that a
-    folder is named by what runs, however the value was written."""
+def resolved_values(scene: Scene, assignment: dict, fields: dict[str, str]) -> dict:
+    """The assignment's values as the validated scene holds them (1 for a real is 1.0), under the
+    keys as written (`fields`: each key by index), so that a folder is named by what runs, however
+    the value was written."""
     from orchestrate.parameters import scene_value
 
     data = scene.model_dump(mode="json")
-    return {key: scene_value(data, key) for key in assignment}
+    return {key: scene_value(data, fields[key]) for key in assignment}
 
 
-def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | None = None) -> tuple[list, list]:
-    """Rows for runs of the scene with each assignment of overrides (on top of `base`), in folders
-    of `out` named by the values that run, and the jobs among them still to run. Two combinations
-    that make the same run are refused."""
+def plan(scene: str | Path, grid: dict[str, list], out: Path, base: dict | None = None) -> tuple[list, list]:
+    """Rows for runs of the scene with each combination of the grid's values (on top of `base`),
+    in folders of `out` named by the values that run, and the jobs among them still to run. Its
+    keys are checked first; two combinations that make the same run are refused."""
     from orchestrate.runner import inputs_of
 
+    require_distinct(grid)
+    fields = grid_fields(scene, grid, base)
+    assignments = [dict(zip(grid, values)) for values in itertools.product(*grid.values())]
     rows, jobs, seen = [], [], {}
     for assignment in assignments:
         row = {**assignment, "folder": folder_name(assignment)}
@@ -120,7 +203,7 @@ def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | Non
         except SceneError as error:
             row.update(status="invalid", error=" | ".join(str(error).splitlines()[1:]) or str(error))
             continue
-        row["folder"] = folder_name(resolved_values(resolved, assignment))
+        row["folder"] = folder_name(resolved_values(resolved, assignment, fields))
         digest = inputs_of(resolved)["digest"]
         if digest in seen:
             raise SceneError(f"--grid: {seen[digest]} and {assignment} are the same run: list each value once")
@@ -135,18 +218,16 @@ def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | Non
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
           workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
-    """Run every combination of `grid` (dotted scene keys → values) over the scene with `base`
-    overrides; returns the rows of sweep.csv (written in `out`, also when interrupted)."""
-    require_distinct(grid)
+    """Run every combination of `grid` (dotted scene keys → lists of values) over the scene with
+    `base` overrides; returns the rows of sweep.csv (written in `out`, also when interrupted). Keys
+    are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label."""
     out = Path(out).resolve()
+    rows, jobs = plan(scene, grid, out, base)
     out.mkdir(parents=True, exist_ok=True)
-    keys = list(grid)
-    assignments = [dict(zip(keys, values)) for values in itertools.product(*(grid[key] for key in keys))]
-    rows, jobs = plan(scene, assignments, out, base)
     try:
         run_jobs(jobs, workers, scheduler, progress)
     finally:
-        write_table(out / "sweep.csv", rows, keys)
+        write_table(out / "sweep.csv", rows, list(grid))
     return rows
 
 
@@ -230,9 +311,20 @@ def add_arguments(parser) -> None:
     from orchestrate.cli import positive
 
     parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
-    parser.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2,...",
-                        help="values of one scene key, e.g. --grid time.N=20,40 --grid glue.gammaNu=0,1")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override for every run")
+    parser.add_argument("--grid", action="append", default=[], metavar="KEY=[V1, V2, ...]",
+                        help="values of one scene key: a TOML list, which takes any value (expressions as strings "
+                             "in quotes, commas and all: --grid 'body1.boundary[label=4].fy=[\"-10*min(t, 0.5)\", "
+                             "\"-20*t\"]'), or plain values split at every comma (--grid time.N=20,40; a piece of "
+                             "an expression cut at a comma is refused). A boundary condition is named by its label "
+                             "(body1.boundary[label=4].fy, preferred: it survives reordering) or its 0-based index "
+                             "(body1.boundary.1.fy). The runs are the product of every key's values")
+    parser.add_argument("--grid-file", metavar="FILE",
+                        help="a TOML file of scene keys and their lists of values, for many values: one key a line, "
+                             "'\"body1.boundary[label=4].fy\" = [\"-10*t\", \"-20*t\"]', or tables "
+                             "('[glue]' then 'gammaNu = [0, 1]'); with --grid, whose keys come after its own (a key "
+                             "in both is refused)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override for every run (keys as for --grid)")
     parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
     parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
@@ -249,7 +341,7 @@ def command(options) -> int:
     base = parse_assignments(options.set, "--set")
     if not options.images:
         base.setdefault("output.images", False)
-    rows = sweep(options.scene, parse_grid(options.grid), options.out, base,
+    rows = sweep(options.scene, grid_of(options.grid, options.grid_file), options.out, base,
                  workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
     width = max(len(row["folder"]) for row in rows)
     for row in rows:

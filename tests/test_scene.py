@@ -117,3 +117,62 @@ def test_a_bad_override_is_named_as_one_not_as_a_line_of_the_scene_file():
     with pytest.raises(SceneError) as error:
         Scene.load(REPO / "scenes" / "paper.toml", {"time.T": 2.0, "output.times": [3.0]})
     assert not any(line.startswith("--set time.T") for line in str(error.value).splitlines())
+
+
+def test_a_boundary_condition_is_overridden_by_its_label_and_nothing_else_changes():
+    paper = Scene.load(REPO / "scenes" / "paper.toml")
+    scene = Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary[label=2].fx": "5*min(t, 0.5)"})
+    changed = paper.model_dump()
+    assert changed["body1"]["boundary"][2] == {"type": "traction", "label": 2, "fx": "10*y*t", "fy": "0"}
+    changed["body1"]["boundary"][2]["fx"] = "5*min(t, 0.5)"  # the paper's label-2 traction is its third condition
+    assert scene.model_dump() == changed
+    by_index = Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.2.fx": "5*min(t, 0.5)"})
+    assert by_index == scene
+
+
+def test_a_label_key_given_on_the_command_line_keeps_its_brackets():
+    from orchestrate.cli import parse_assignments
+
+    assert parse_assignments(["body1.boundary[label=4].fy=-10*min(t, 1)", "title=a=b"], "--set") == \
+        {"body1.boundary[label=4].fy": "-10*min(t, 1)", "title": "a=b"}
+
+
+def test_a_bad_value_by_label_is_named_by_the_key_as_written():
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary[label=4].fy": "exec(1)", "body1.boundary[label=2].fz": "1"})
+    lines = str(error.value).splitlines()
+    assert any(line.startswith("--set body1.boundary[label=4].fy = 'exec(1)': name 'exec' is not allowed") for line in lines)
+    assert "--set body1.boundary[label=2].fz: unknown key (did you mean 'fy'?)" in lines
+
+
+@pytest.mark.parametrize("key, words", [
+    ("body1.boundary[label=9].fy", ["--set body1.boundary[label=9].fy", "no condition of body1.boundary is on label 9",
+                                    "0 clamped on label 5, 1 traction on label 4, 2 traction on label 2"]),
+    ("body1.boundary[lable=4].fy", ["'boundary[lable=4]' is no key", "NAME[label=N]", "NAME.I", "0-based index"]),
+    ("body1.boundary[4].fy", ["'boundary[4]' is no key", "body1.boundary[label=4].fy", "body1.boundary.1.fy"]),
+    ("body1.boundry[label=4].fy", ["the scene has no body1.boundry", "did you mean 'boundary'"]),
+    ("body1.material[label=4].E", ["body1.material is not a list", "bodyN.boundary"]),
+])
+def test_a_label_key_that_names_no_condition_is_refused_with_the_forms_allowed(key, words):
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {key: "1"})
+    for word in words:
+        assert word in str(error.value), (word, str(error.value))
+
+
+def test_a_label_of_two_conditions_is_refused_naming_both(tmp_path):
+    roller = '[[body1.boundary]]\ntype = "roller"\nlabel = 2\ncomponent = "y"\n\n[[body1.boundary]]\ntype = "traction"\nlabel = 2'
+    path = tmp_path / "scene.toml"
+    path.write_text(PAPER.replace('[[body1.boundary]]\ntype = "traction"\nlabel = 2', roller, 1))
+    assert [(b.type, b.label) for b in Scene.load(path).body1.boundary][2:] == [("roller", 2), ("traction", 2)]
+    with pytest.raises(SceneError) as error:
+        Scene.load(path, {"body1.boundary[label=2].fx": "1"})
+    assert "--set body1.boundary[label=2].fx: label 2 carries 2 conditions" in str(error.value)
+    assert "2 roller on label 2, 3 traction on label 2" in str(error.value)
+    assert "address one by its 0-based index, e.g. body1.boundary.2" in str(error.value)
+    assert Scene.load(path, {"body1.boundary.3.fx": "1"}).body1.boundary[3].fx == "1"
+
+
+def test_two_keys_naming_one_value_are_refused():
+    with pytest.raises(SceneError, match=r"body1.boundary.1.fy and body1.boundary\[label=4\].fy name the same value"):
+        Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.1.fy": "1", "body1.boundary[label=4].fy": "2"})

@@ -1,11 +1,15 @@
 """Sweeps on dask.distributed: four coarse runs on a LocalCluster, one failing on purpose; then
-the same sweep again runs only what did not complete."""
+the same sweep again runs only what did not complete. The grid's syntax: TOML lists of any value,
+boundary conditions by label, grid files."""
 import csv
+import subprocess
+import sys
 
 import pytest
 
-from orchestrate import sweep
+from orchestrate import SceneError, sweep
 from orchestrate.freefem import REPO
+from orchestrate.sweep import grid_of, parse_grid, plan
 
 SCENE = REPO / "scenes" / "paper.toml"
 BASE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
@@ -79,9 +83,6 @@ def test_a_sweep_runs_on_an_existing_cluster_given_its_address(tmp_path):
 @pytest.mark.parametrize("images", [False, True])
 def test_a_sweep_draws_images_only_when_asked(tmp_path, images):
     """A sweep's figures are its table: `sweep` runs skip the images unless --images."""
-    import subprocess
-    import sys
-
     settings = [f"--set={key}={value}" for key, value in BASE.items() if key != "output.images"]
     done = subprocess.run([sys.executable, "-m", "orchestrate", "sweep", str(SCENE), "--grid", "glue.gammaNu=0",
                            *settings, "--out", str(tmp_path / "sweep"), "--workers", "1", *(["--images"] if images else [])],
@@ -89,3 +90,91 @@ def test_a_sweep_draws_images_only_when_asked(tmp_path, images):
     assert done.returncode == 0, done.stderr[-2000:]
     pictures = list((tmp_path / "sweep").rglob("*.png"))
     assert bool(pictures) == images and (not images or {p.name for p in pictures} >= {"fields.png", "history.png"})
+
+
+# --- the grid's syntax ---------------------------------------------------------------------
+
+def test_a_toml_list_sweeps_expressions_whole_commas_and_all():
+    grid = parse_grid(['body1.boundary[label=4].fy=["-10*min(t, 1)", \'atan2(y, x)\', "pow(x, 2)*max(t, 0.5)", -3]',
+                       "time.N=20, 40", "solver.contactSolver=pdas,bm", "glue.gammaNu=[0, 1.5]"])
+    assert grid == {"body1.boundary[label=4].fy": ["-10*min(t, 1)", "atan2(y, x)", "pow(x, 2)*max(t, 0.5)", -3],
+                    "time.N": [20, 40], "solver.contactSolver": ["pdas", "bm"], "glue.gammaNu": [0, 1.5]}
+
+
+@pytest.mark.parametrize("item, words", [
+    ("body1.boundary[label=4].fy=-10*min(t, 1),-20*t", ["--grid body1.boundary[label=4].fy=", "'-10*min(t' is part of "
+                                                        "a value cut at a comma", "body1.boundary[label=4].fy=[V1, V2"]),
+    ("body1.boundary.1.fy=atan2(y, x)", ["--grid body1.boundary.1.fy=", "'atan2(y' is part", "a TOML list"]),
+    ("time.N=20,,40", ["--grid time.N=20,,40", "an empty value"]),
+    ("body1.boundary[label=4].fy=[-10*t, -20*t]", ["--grid body1.boundary[label=4].fy=[-10*t", "not a TOML list",
+                                                   "strings in quotes", "KEY=V1,V2"]),
+    ('time.N=[20, 40', ["--grid time.N=[20, 40", "not a TOML list", "Unclosed array"]),
+    ("time.N", ["--grid 'time.N'", "expected key=value1,value2,... or key=[value1, value2, ...]"]),
+])
+def test_a_grid_that_would_cut_or_misread_a_value_is_refused_showing_the_list_form(item, words):
+    with pytest.raises(SceneError) as error:
+        parse_grid([item])
+    for word in words:
+        assert word in str(error.value), (word, str(error.value))
+
+
+def test_grid_keys_are_checked_against_the_scene_before_anything_runs(tmp_path):
+    with pytest.raises(SceneError, match=r"--grid body1.boundary\[label=9\].fy: no condition .* on label 9 \(its "
+                                         r"conditions: 0 clamped on label 5, 1 traction on label 4, 2 traction on label 2"):
+        sweep(SCENE, {"body1.boundary[label=9].fy": ["-10*t"]}, tmp_path / "a", BASE)
+    with pytest.raises(SceneError, match=r"--grid body1.boundary.1.fy and body1.boundary\[label=4\].fy name the same"):
+        sweep(SCENE, {"body1.boundary.1.fy": ["-10*t"], "body1.boundary[label=4].fy": ["-20*t"]}, tmp_path / "b", BASE)
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_grid_file_gives_the_plan_of_the_same_grid_on_the_command_line(tmp_path):
+    loads = '["-10*min(t, 1)", "-10*atan2(t, 1)"]'
+    path = tmp_path / "grid.toml"
+    path.write_text(f'"body1.boundary[label=4].fy" = {loads}\n[glue]\ngammaNu = [0.5, 1]\n')
+    written = [f"body1.boundary[label=4].fy={loads}", "glue.gammaNu=0.5,1"]
+    partial = tmp_path / "loads.toml"
+    partial.write_text(f'"body1.boundary[label=4].fy" = {loads}\n')
+    from_file, from_options, both = grid_of([], path), grid_of(written, None), grid_of(written[1:], partial)
+    assert from_file == from_options == both
+    assert from_file["body1.boundary[label=4].fy"] == ["-10*min(t, 1)", "-10*atan2(t, 1)"]
+
+    def folders(grid):
+        return [row["folder"] for row in plan(SCENE, grid, tmp_path / "out", BASE)[0]]
+
+    assert folders(from_file) == folders(from_options) and len(set(folders(from_file))) == 4
+    example = plan(SCENE, grid_of([], REPO / "docs" / "examples" / "grid.toml"), tmp_path / "out", BASE)[0]
+    assert len(example) == 6 and not any(row.get("status") == "invalid" for row in example)  # README's example
+    with pytest.raises(SceneError, match=r"--grid glue.gammaNu is also in --grid-file .*grid.toml"):
+        grid_of(["glue.gammaNu=2"], path)
+    path.write_text('"time.N" = [20]\n[time]\nN = [40]\n')
+    with pytest.raises(SceneError, match="grid file .*: time.N is given twice"):
+        grid_of([], path)
+    with pytest.raises(SceneError, match=r"nothing to sweep: give --grid KEY=\[V1, V2, ...\] .* or --grid-file FILE"):
+        grid_of([], None)
+    path.write_text('"time.N" = 20\n')
+    with pytest.raises(SceneError, match=r"time.N = 20 is not a list: give its values as one, e.g. time.N = \[20, ...\]"):
+        grid_of([], path)
+
+
+def test_a_sweep_of_two_loads_with_commas_scales_the_contact_force_as_the_loads_do(tmp_path):
+    """Without damage (lambdaU = 0 keeps zeta at 1) and without glue (gammaNu = 0), the problem is
+    linear viscoelasticity under frictionless contact with no gap, whose constraint is a cone: from
+    rest, twice the load gives twice the solution and twice the contact force, whatever the
+    active set. The two loads, -10*min(t, 1) and -10*min(2*t, 2), are -10t and -20t on [0, 1];
+    the label-2 traction is set to 0 (by label) so that the load is the swept one alone."""
+    key = "body1.boundary[label=4].fy"
+    settings = {**{k: v for k, v in BASE.items() if k != "output.images"}, "glue.gammaNu": 0,
+                "body1.damage.lambdaU": 0, "body2.damage.lambdaU": 0, "body1.boundary[label=2].fx": '"0"'}
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "sweep", str(SCENE),
+                           "--grid", f'{key}=["-10*min(t, 1)", "-10*min(2*t, 2)"]',
+                           *[f"--set={k}={v}" for k, v in settings.items()], "--out", str(tmp_path), "--workers", "1"],
+                          cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    with open(tmp_path / "sweep.csv") as handle:
+        single, double = csv.DictReader(handle)
+    assert (single[key], double[key]) == ("-10*min(t, 1)", "-10*min(2*t, 2)")  # the column is the key as written
+    assert all(row["folder"].startswith("body1.boundary_label=4_.fy=-10_min_") for row in (single, double))
+    assert min(float(row[z]) for row in (single, double) for z in ("zetaMin1", "zetaMin2")) > 1 - 1e-12
+    assert float(single["contactForce"]) > 1  # in contact
+    assert float(double["contactForce"]) / float(single["contactForce"]) == pytest.approx(2, rel=1e-9)
+    assert float(double["normV"]) / float(single["normV"]) == pytest.approx(2, rel=1e-9)
