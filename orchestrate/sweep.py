@@ -62,7 +62,7 @@ def run_one(scene_data: dict, folder: str) -> dict:
     from orchestrate.runner import run
 
     try:
-        run(Scene.model_validate(scene_data), folder, force=True, resume=True)
+        run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
     return row_of(Path(folder), "completed")
@@ -134,9 +134,13 @@ def plan(scene: str | Path, assignments: list[dict], out: Path, base: dict | Non
 
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
-          workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
+          workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto") -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → values) over the scene with `base`
-    overrides; returns the rows of sweep.csv (written in `out`, also when interrupted)."""
+    overrides; returns the rows of sweep.csv (written in `out`, also when interrupted).
+    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py)."""
+    from orchestrate.progress import wanted
+
+    shown = wanted(progress)
     require_distinct(grid)
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -144,7 +148,7 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
     assignments = [dict(zip(keys, values)) for values in itertools.product(*(grid[key] for key in keys))]
     rows, jobs = plan(scene, assignments, out, base)
     try:
-        run_jobs(jobs, workers, scheduler, progress)
+        run_jobs(jobs, workers, scheduler, shown)
     finally:
         write_table(out / "sweep.csv", rows, keys)
     return rows
@@ -184,6 +188,7 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
         return
     from dask.distributed import as_completed
 
+    from orchestrate.progress import counter
     from orchestrate.runner import signals_as_interrupt
 
     import os
@@ -194,16 +199,10 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
     try:
         with signals_as_interrupt():
             futures = {client.submit(run_one, data, folder, pure=False): row for row, data, folder in jobs}
-            bar = None
-            if progress:
-                from tqdm import tqdm
-                bar = tqdm(total=len(futures), unit="run", desc="runs")
-            for future in as_completed(futures):
-                futures[future].update(future.result())
-                if bar is not None:
+            with counter(progress, len(futures), "run", "runs") as bar:
+                for future in as_completed(futures):
+                    futures[future].update(future.result())
                     bar.update(1)
-            if bar is not None:
-                bar.close()
     except BaseException:
         interrupted = True
         stop_workers(own)  # our own workers end at once, and their FreeFem++ with them
