@@ -72,7 +72,7 @@ def variant_name(scheme: str, family: str) -> str:
 
 def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
     base = {"output.times": "final", "output.fields": ["state"], "output.images": False}
-    result = run(scene, folder, {**base, **overrides}, force=True, mesh_cache=cache,
+    result = run(scene, folder, {**base, **overrides}, force=True, progress=False, mesh_cache=cache,
                  solver_flags=("-measureSolves", MEASURE))
     timing = json.loads((folder / "summary.json").read_text())["timing"]
     steps = overrides["time.N"]

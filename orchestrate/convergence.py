@@ -28,10 +28,11 @@ import numpy as np
 from orchestrate.compare import distances as state_distances
 from orchestrate.manifest import facts
 from orchestrate.plots import pyplot, save
+from orchestrate.progress import wanted
 from orchestrate.reports import QUANTITIES, LABELS, convergence_report, expected_order, write_csv
 from orchestrate.results import load_result
 from orchestrate.scene import Scene
-from orchestrate.sweep import plan, run_jobs
+from orchestrate.sweep import plan_runs, run_jobs
 
 KINDS = ("lockstep", "time", "space")
 ACCURACY = ("bdf2", "semi-implicit", "euler")  # most accurate first: the time ladders' reference
@@ -138,8 +139,10 @@ def rates(rows: list[dict], ladder: str) -> dict[str, dict[str, float]]:
 def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: int = 6, n2: int = 8, steps: int = 20,
                 time_mesh_level: int = 3, space_steps_level: int = 4, kinds=KINDS, schemes=(None,),
                 time_steps: int | None = None, time_count: int | None = None, workers: int = 2,
-                progress: bool = False) -> list[dict]:
-    """Run the ladders and write convergence.csv, README.md and convergence.png in `out`."""
+                progress: bool | str = "auto") -> list[dict]:
+    """Run the ladders and write convergence.csv, README.md and convergence.png in `out`;
+    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py)."""
+    shown = wanted(progress)
     out = Path(out).resolve()
     scene = Scene.load(scene_path)
     studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level, kinds, schemes, time_steps, time_count)
@@ -147,14 +150,14 @@ def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: 
     for ladder in studied:
         times = [j * scene.time.T / ladder.instants for j in range(1, ladder.instants + 1)]
         base = {"output.times": times, "output.fields": ["state"], "output.images": False}
-        rows, ladder_jobs = plan(scene_path, ladder.levels, out / "runs" / ladder.name.replace(" ", "-"), base)
+        rows, ladder_jobs = plan_runs(scene_path, ladder.levels, out / "runs" / ladder.name.replace(" ", "-"), base)
         planned[ladder.name] = rows
         jobs += ladder_jobs
         if ladder.reference and "time" not in references:
-            rows, reference_jobs = plan(scene_path, [ladder.reference], out / "runs" / "time-reference", base)
+            rows, reference_jobs = plan_runs(scene_path, [ladder.reference], out / "runs" / "time-reference", base)
             references["time"] = rows[0]
             jobs += reference_jobs
-    run_jobs(jobs, workers, None, progress)
+    run_jobs(jobs, workers, None, shown)
     tolerated = [row for ladder in studied if ladder.kind == "time" for row in planned[ladder.name]]
     failed = [row for rows in (*planned.values(), list(references.values())) for row in rows
               if row["status"] in ("failed", "invalid", "interrupted") and row not in tolerated]

@@ -92,10 +92,14 @@ def measure(result, radius: float) -> dict:
             "errorP0": abs(p0_computed - p0) / p0, "errorProfile": profile}
 
 
-def hertz(out: str | Path, levels: int = 4, coarsest: int = 8) -> list[dict]:
+def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | str = "auto") -> list[dict]:
+    """The cases over the mesh levels, into hertz.csv, README.md and the figures in `out`;
+    progress: each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
     from orchestrate.freefem import REPO
+    from orchestrate.progress import wanted
     from orchestrate.runner import run
 
+    shown = wanted(progress)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows, finest = [], {}
@@ -105,14 +109,15 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8) -> list[dict]:
                 n = coarsest * 2 ** level
                 folder = Path(scratch) / f"{case}-n{n}"
                 result = run(REPO / "scenes" / "hertz.toml", folder,
-                             {**overrides, "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False})
+                             {**overrides, "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False}, progress=shown)
                 rows.append({"case": case, "n": n, **measure(result, RADIUS), **node_counts(result)})
                 finest[case] = (rows[-1], result)
             mesh_errors([row for row in rows if row["case"] == case])
         for pressed in [row for row in rows if row["case"] == "same"]:
             n = pressed["n"]
             result = run(REPO / "scenes" / "hertz.toml", Path(scratch) / f"{LOADED}-n{n}",
-                         {**force_controlled(pressed["F"]), "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False})
+                         {**force_controlled(pressed["F"]), "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False},
+                         progress=shown)
             row = {"case": LOADED, "n": n, **measure(result, RADIUS), **node_counts(result), "approach": approach(result)}
             row["pressedA"] = abs(row["aMoment"] - pressed["aMoment"]) / pressed["aMoment"]
             row["pressedP0"] = abs(row["p0Computed"] - pressed["p0Computed"]) / pressed["p0Computed"]
@@ -246,6 +251,8 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    hertz(options.out, options.levels, options.coarsest)
+    import sys
+
+    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty())
     print((Path(options.out) / "README.md").read_text())
     return 0

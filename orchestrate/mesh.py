@@ -182,10 +182,11 @@ def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0) -> s
     return "generated:" + cache_key(source, numbers, refine)
 
 
-def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None) -> Path:
+def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None,
+              announce=None) -> Path:
     """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them), its
     triangles split in four `refine` times (red refinement: the meshes are nested), read back
-    whole."""
+    whole; announce() is called when gmsh is to make it (none of a committed or cached mesh)."""
     committed = committed_mesh(source, numbers, refine)
     if committed is not None:
         read_msh(committed)
@@ -201,6 +202,8 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     cache.mkdir(parents=True, exist_ok=True)
     remove_orphans(cache)
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
+    if announce:
+        announce()
     try:
         generate(source, numbers, refine, partial)
         read_msh(partial)

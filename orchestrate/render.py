@@ -302,22 +302,30 @@ def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path
 
 
 def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int | None = None,
-               **fields_options) -> list[Path]:
+               *, announce=None, **fields_options) -> list[Path]:
     """Every image the run's files allow: fields (body files), contact line, β over x and t,
     history, in `image_format` (png, pdf, svg) at `dpi` (default: each image's own);
+    announce(name) is told each image's file name before it is drawn (a run's progress);
     fields_options (time among them) go to render_fields. Returns the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
     own = {} if dpi is None else {"dpi": dpi}
     images = []
+
+    def drawn(name: str, draw, *arguments, **options) -> None:
+        target = folder / f"{name}.{image_format}"
+        if announce:
+            announce(target.name)
+        draw(result, target, *arguments, **own, **options)
+        images.append(target)
+
     if any({"body1", "body2"} <= set(files) for _, files in result.outputs):
-        render_fields(result, folder / f"fields.{image_format}", **own, **fields_options)
-        images.append(folder / f"fields.{image_format}")
+        drawn("fields", render_fields, **fields_options)
     if any("contact" in files for _, files in result.outputs):
-        images.append(plot_contact_line(result, folder / f"contact_line.{image_format}", fields_options.get("time"),
-                                        **own))
+        drawn("contact_line", plot_contact_line, fields_options.get("time"))
     if sum("contact" in files for _, files in result.outputs) >= 3:
-        images.append(plot_bonding_evolution(result, folder / f"beta_xt.{image_format}", **own))
-    return images + [plot_history(result, folder / f"history.{image_format}", **own)]
+        drawn("beta_xt", plot_bonding_evolution)
+    drawn("history", plot_history)
+    return images
 
 
 # --- command line ---------------------------------------------------------------------------

@@ -38,6 +38,7 @@ from pathlib import Path
 from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
 from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, write_manifest
+from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
 
@@ -254,12 +255,14 @@ def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
 
 
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
-        force: bool = False, resume: bool = False, progress: bool = False, mesh_cache: Path | None = None,
+        force: bool = False, resume: bool = False, progress: bool | str = "auto", mesh_cache: Path | None = None,
         solver_flags: tuple = ()) -> Result:
     """Run a scene (a Scene or a .toml path, with dotted-key overrides) into folder `out`.
     resume: continue the interrupted run in `<out>.partial` from its newest checkpoint when it has
-    the same inputs; mesh_cache: another mesh cache folder (the benchmark's, to time meshing);
-    solver_flags: extra driver flags that change no result (e.g. -measureSolves 10)."""
+    the same inputs; progress: a bar on stderr or in a notebook, True, False or "auto" (where one
+    can be seen: orchestrate/progress.py); mesh_cache: another mesh cache folder (the benchmark's,
+    to time meshing); solver_flags: extra driver flags that change no result (e.g. -measureSolves 10)."""
+    wanted(progress)  # a wrong value is said before anything runs
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
     require_plain_path(REPO, "the repository's location")
@@ -276,7 +279,9 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         restart = resumable(partial, inputs, resume, force)
         return restart
 
-    with claimed(out, keep) as partial:
+    steps = None if scene.time.N == "auto" else scene.time.N  # "auto": known once the pilots ran
+    with (claimed(out, keep) as partial,
+          run_progress(progress, out.name, steps, checkpoint_step(partial) if restart else 0) as bar):
         try:
             refuse_existing(out, force)  # again, now that no other run can take the folder
         except RunError:
@@ -286,8 +291,8 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():
-                planned, plan = resolve_steps(scene, partial, mesh_cache, restart)
-                summary = build(planned, partial, progress, mesh_cache, solver_flags, restart)
+                planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar)
+                summary = build(planned, partial, bar, mesh_cache, solver_flags, restart)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
@@ -355,9 +360,10 @@ def publish(partial: Path, out: Path) -> None:
         shutil.rmtree(retired)
 
 
-def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshing.MeshInfo]:
+def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgress) -> list[meshing.MeshInfo]:
     """Both bodies meshed at once (each in a gmsh process of its own), copied into the run folder as
     body1.msh and body2.msh after their labels and size are checked against the scene."""
+    bar.phase("meshing")
     bodies = (scene.body1, scene.body2)
     free = meshing.memory_available()
     nodes = sum(meshing.estimated_nodes(b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache) for b in bodies)
@@ -367,8 +373,9 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None) -> list[meshi
                           "lower mesh.n or mesh.refine")
     pool = ThreadPoolExecutor(2)
     try:
-        paths = list(pool.map(lambda b: meshing.body_mesh(b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache),
-                              bodies))
+        paths = list(pool.map(lambda index, b: meshing.body_mesh(
+            b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache,
+            announce=lambda: bar.phase(f"meshing body {index} (gmsh)")), (1, 2), bodies))
     except BaseException:
         meshing.stop_meshing()
         raise
@@ -420,21 +427,8 @@ def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
                              f"(its labels: {', '.join(map(str, sorted(info.segments)))})")
 
 
-def follow_history(path: Path, bar, done: threading.Event) -> None:
-    """Advance the progress bar with the rows history.csv gains (the run writes one per step)."""
-    rows = -1
-    while not done.wait(0.25):
-        try:
-            with open(path, "rb") as handle:
-                now = handle.read().count(b"\n") - 1
-        except FileNotFoundError:
-            continue
-        if now > rows:
-            bar.update(now - max(rows, 0))
-            rows = now
-
-
-def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: bool) -> tuple[Scene, dict | None]:
+def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: bool,
+                  bar: RunProgress = RunProgress()) -> tuple[Scene, dict | None]:
     """The scene with its N, and the plan (steps.json) when time.N is "auto": chosen by pilot runs
     (orchestrate/steps.py), or read back when a run of it is continued from its checkpoint."""
     if scene.time.N != "auto":
@@ -445,6 +439,7 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
     else:
         from orchestrate.steps import StepsError, choose_steps
 
+        bar.phase("choosing N (pilot runs)")
         try:
             plan = choose_steps(scene, folder / "pilots", mesh_cache)
         except StepsError as error:
@@ -454,42 +449,32 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
     return scene.model_copy(update={"time": time_grid}), plan
 
 
-def solve(scene: Scene, folder: Path, progress: bool, solver_flags: tuple, restart: bool):
-    """FreeFem++ on the run folder (from its checkpoint with `restart`), with a progress bar fed
-    by history.csv."""
-    bar, done, watcher = None, threading.Event(), None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=scene.time.N, unit="step", desc=folder.name.removesuffix(".partial"), leave=False)
-        watcher = threading.Thread(target=follow_history, args=(folder / "history.csv", bar, done), daemon=True)
-        watcher.start()
-    try:
-        flags = ["-out", ".", *(["-restart", "."] if restart else []), *solver_flags]
+def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, restart: bool):
+    """FreeFem++ on the run folder (from its checkpoint with `restart`), its steps on the bar."""
+    bar.steps(scene.time.N, checkpoint_step(folder) if restart else 0)
+    flags = ["-out", ".", *(["-restart", "."] if restart else []), *solver_flags]
+    with bar.following(folder / "history.csv"):
         return run_logged(MAIN, flags, folder / "run.log", folder, defines={"SCENE": "scene.idp"}, append=restart)
-    finally:
-        done.set()
-        if watcher is not None:
-            watcher.join()
-            bar.close()
 
 
-def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = None, solver_flags: tuple = (),
+def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None = None, solver_flags: tuple = (),
           restart: bool = False) -> dict:
     """Everything of a run inside `folder` (continued from its checkpoint with `restart`);
     returns the summary (without the total wall time)."""
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
-    meshes_of(scene, folder, mesh_cache)
+    meshes_of(scene, folder, mesh_cache, bar)
     timing["meshing"] = time.perf_counter() - clock
     (folder / "scene.idp").write_text(to_freefem_scene(scene))
 
     clock = time.perf_counter()
-    done = solve(scene, folder, progress, solver_flags, restart)
+    done = solve(scene, folder, bar, solver_flags, restart)
     timing["solver"] = time.perf_counter() - clock
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
         raise SolverError(done.returncode, python_spelling(done.error_line), tail)
+    bar.phase("reading the files back")
     check_files(folder)
     run_facts = facts(folder)
 
@@ -497,7 +482,7 @@ def build(scene: Scene, folder: Path, progress: bool, mesh_cache: Path | None = 
     clock = time.perf_counter()
     if scene.output.images and result.outputs:
         from orchestrate.render import render_all
-        render_all(result, folder)
+        render_all(result, folder, announce=lambda name: bar.phase(f"rendering {name}"))
     timing["images"] = time.perf_counter() - clock
     timing.update({"solverSetupCpu": run_facts.get("setupSeconds"), "solverLoopCpu": run_facts.get("loopSeconds"),
                    "solverOutputCpu": run_facts.get("outputSeconds"), "solverTotalCpu": run_facts.get("totalSeconds"),

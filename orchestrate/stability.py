@@ -62,13 +62,13 @@ def grows(history, fact: str) -> bool:
     return bool(history["normV"][-1] > 10 * at_one)
 
 
-def is_unstable(scene_path, overrides: dict, folder: Path, fact: str = ELASTIC) -> bool:
+def is_unstable(scene_path, overrides: dict, folder: Path, fact: str, progress: bool) -> bool:
     """Unstable: the run stops on divergence (exit 5), or it grows (`grows`)."""
     from orchestrate.freefem import SolverError
     from orchestrate.runner import run
 
     try:
-        result = run(scene_path, folder, overrides, force=True)
+        result = run(scene_path, folder, overrides, force=True, progress=progress)
     except SolverError as error:
         if error.returncode == 5:
             return True
@@ -76,33 +76,37 @@ def is_unstable(scene_path, overrides: dict, folder: Path, fact: str = ELASTIC) 
     return grows(result.history, fact)
 
 
-def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int, fact: str) -> int:
+def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int, fact: str, progress: bool) -> int:
     """Bisection on N between an unstable and a stable step count around `guess`."""
+    def unstable(steps: int) -> bool:
+        return is_unstable(scene_path, {**overrides, "time.N": steps}, folder, fact, progress)
+
     low, high = max(1, int(0.7 * guess)), int(1.4 * guess) + 1
-    while not is_unstable(scene_path, {**overrides, "time.N": low}, folder, fact):
+    while not unstable(low):
         low = max(1, low // 2)
-    while is_unstable(scene_path, {**overrides, "time.N": high}, folder, fact):
+    while unstable(high):
         high *= 2
     while high - low > 1:
         middle = (low + high) // 2
-        if is_unstable(scene_path, {**overrides, "time.N": middle}, folder, fact):
+        if unstable(middle):
             low = middle
         else:
             high = middle
     return high
 
 
-def threshold(scene_path, overrides: dict, folder: Path, fact: str) -> dict:
+def threshold(scene_path, overrides: dict, folder: Path, fact: str, progress: bool = False) -> dict:
     """The predicted bound (from a short run) against the observed one (bisection on N over a
     horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
     probe = {**overrides, "solver.allowUnstable": True, "output.times": "none", "output.images": False}
-    is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder, fact)
+    is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder, fact, progress)
     k_star = predicted_bound(folder, fact, 1.0 / 1000)
     if k_star is None:
         raise RuntimeError(f"the run in {folder} has no {fact} among its facts")
     glue_bound = predicted_bound(folder, GLUE, 1.0 / 1000) if fact == ELASTIC else None
     horizon = max(5.0, 200 * k_star)
-    steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star), fact)
+    steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star), fact,
+                                  progress)
     stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
     observed = 0.5 * (stable_k + unstable_k)
     return {"scheme": overrides.get("time.scheme", "euler"), "T": horizon, "predicted": k_star,
@@ -117,7 +121,8 @@ def strong_damage(E: float, horizon: float) -> dict:
     return {"body1.damage.lambdaU": lambda_u, "body2.damage.lambdaU": lambda_u}
 
 
-def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, multiples=(0.25, 1, 10, 100)) -> list[dict]:
+def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, progress: bool,
+                  multiples=(0.25, 1, 10, 100)) -> list[dict]:
     """The implicit schemes with strong damage at k = m k* (k* the paper's scheme's elastic bound):
     whether the run passes the driver's divergence and chatter checks, its largest growth of ‖u‖_V
     in one step once the loads are held, the ζ it reaches, and ‖u(T)‖_V against bdf2 at k*/16,
@@ -126,13 +131,15 @@ def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, mu
     from orchestrate.runner import run
 
     quiet = {**base, "body1.material.E": E, "body2.material.E": E, "output.times": "none", "output.images": False}
-    run(scene_path, folder, {**quiet, "time.T": 1.0, "time.N": 1000, "solver.allowUnstable": True}, force=True)
+    run(scene_path, folder, {**quiet, "time.T": 1.0, "time.N": 1000, "solver.allowUnstable": True}, force=True,
+        progress=progress)
     k_star = predicted_bound(folder, ELASTIC, 1.0 / 1000)
     horizon = max(5.0, 200 * k_star)
     damaged = {**quiet, **strong_damage(E, horizon), "time.T": horizon}
     fine = {**damaged, "time.N": 16 * int(np.ceil(horizon / k_star))}
-    check_norm = run(scene_path, folder, fine, force=True).history["normV"][-1]
-    reference_norm = run(scene_path, folder, {**fine, "time.scheme": "bdf2"}, force=True).history["normV"][-1]
+    check_norm = run(scene_path, folder, fine, force=True, progress=progress).history["normV"][-1]
+    reference_norm = run(scene_path, folder, {**fine, "time.scheme": "bdf2"}, force=True,
+                         progress=progress).history["normV"][-1]
     reference_facts = read_json(folder / "run.json")
     nodes = reference_facts["nodes1"] + reference_facts["nodes2"]
     rows = []
@@ -144,7 +151,8 @@ def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, mu
                    "kOverKStar": horizon / steps / k_star, "stableN": steps,
                    "referenceCheck": check_norm / reference_norm - 1}
             try:
-                history = run(scene_path, folder, {**damaged, "time.scheme": scheme, "time.N": steps}, force=True).history
+                history = run(scene_path, folder, {**damaged, "time.scheme": scheme, "time.N": steps}, force=True,
+                              progress=progress).history
             except SolverError as error:
                 if error.returncode != 5:
                     raise
@@ -161,38 +169,58 @@ def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, mu
     return rows
 
 
+def elastic_rows(scene_path, held: dict, E: float, eta: float, damage: str, folder: Path, progress: bool) -> list[dict]:
+    """The paper's scheme's elastic bound at E/η, with damage ("on") or with λ_u = 0 ("off")."""
+    overrides = {**held, "body1.material.E": E, "body2.material.E": E}
+    if damage == "off":
+        overrides.update({"body1.damage.lambdaU": 0.0, "body2.damage.lambdaU": 0.0})
+    return [{"term": "elastic", "parameter": E / eta, "damage": damage,
+             **threshold(scene_path, overrides, folder, ELASTIC, progress)}]
+
+
+def source_rows(scene_path, scheme: str, folder: Path, progress: bool) -> list[dict]:
+    """The damage source's bound of a scheme (SOURCE_ALONE)."""
+    return [{"term": "damage source", "parameter": ZETA_EQUILIBRIUM, "damage": "on",
+             **threshold(scene_path, {**SOURCE_ALONE, "time.scheme": scheme}, folder, SOURCE, progress)}]
+
+
+def glue_rows(scheme: str, p_tau: float, folder: Path, progress: bool) -> list[dict]:
+    """The tangential glue's bound of a scheme at p_τ (GLUE_ALONE)."""
+    return [{"term": "tangential glue", "parameter": p_tau, "damage": "on",
+             **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau, "time.scheme": scheme}, folder, GLUE, progress)}]
+
+
 def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0),
-              glue=(100.0, 1000.0, 10000.0)) -> list[dict]:
+              glue=(100.0, 1000.0, 10000.0), progress: bool | str = "auto") -> list[dict]:
     """Predicted and observed bounds of the explicit terms, on `scene_path` with coarse meshes:
     the paper's scheme's elastic k* for several E/η, with damage and with λ_u = 0; the implicit
     schemes far above it with strong damage; the damage source's bound per scheme (SOURCE_ALONE);
     and the tangential glue bound glueLimit/ρ_τ per scheme for several p_τ on the shear scene set
-    up so that the glue alone sets the bound (GLUE_ALONE)."""
+    up so that the glue alone sets the bound (GLUE_ALONE). progress: a bar of these cases and
+    each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
+    from functools import partial
+
+    from orchestrate.progress import counter, wanted
+
+    shown = wanted(progress)
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     eta = Scene.load(scene_path).body1.material.eta
     held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)",
             "body1.mesh.n": 6, "body2.mesh.n": 8}
+    cases = [(f"elastic, E/η = {E / eta:.3g}, damage {damage}", partial(elastic_rows, scene_path, held, E, eta, damage))
+             for E in young for damage in ("on", "off")]
+    cases += [(f"implicit schemes, E/η = {E / eta:.3g}", partial(implicit_rows, scene_path, held, E, eta))
+              for E in young]
+    cases += [(f"damage source, {scheme}", partial(source_rows, scene_path, scheme)) for scheme in ("euler", "bdf2")]
+    cases += [(f"tangential glue, {scheme}, p_τ = {p_tau:g}", partial(glue_rows, scheme, p_tau))
+              for scheme in ("euler", *IMPLICIT) for p_tau in glue]
     rows = []
-    with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(scratch) / "run"
-        for E in young:
-            for damage in ("on", "off"):
-                overrides = {**held, "body1.material.E": E, "body2.material.E": E}
-                if damage == "off":
-                    overrides.update({"body1.damage.lambdaU": 0.0, "body2.damage.lambdaU": 0.0})
-                rows.append({"term": "elastic", "parameter": E / eta, "damage": damage,
-                             **threshold(scene_path, overrides, folder, ELASTIC)})
-        for E in young:
-            rows += implicit_rows(scene_path, held, E, eta, folder)
-        for scheme in ("euler", "bdf2"):
-            rows.append({"term": "damage source", "parameter": ZETA_EQUILIBRIUM, "damage": "on",
-                         **threshold(scene_path, {**SOURCE_ALONE, "time.scheme": scheme}, folder, SOURCE)})
-        for scheme in ("euler", *IMPLICIT):
-            for p_tau in glue:
-                rows.append({"term": "tangential glue", "parameter": p_tau, "damage": "on",
-                             **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau, "time.scheme": scheme},
-                                         folder, GLUE)})
+    with tempfile.TemporaryDirectory() as scratch, counter(shown, len(cases), "case", "stability") as bar:
+        for label, rows_of in cases:
+            bar.set_postfix_str(label)
+            rows += rows_of(Path(scratch) / "run", shown)
+            bar.update(1)
     write_csv(out / "stability.csv", rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
     (out / "README.md").write_text(stability_report(rows, f"python -m orchestrate study stability "
                                                           f"{Path(scene_path).as_posix()}"))
@@ -246,6 +274,8 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    stability(options.scene, options.out)
+    import sys
+
+    stability(options.scene, options.out, progress=sys.stderr.isatty())
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -51,7 +51,7 @@ def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | st
 
     manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
     try:
-        run(manual, folder, pilot_overrides(scene, steps), force=True, mesh_cache=mesh_cache)
+        run(manual, folder, pilot_overrides(scene, steps), force=True, progress=False, mesh_cache=mesh_cache)
     except SolverError as error:
         if error.returncode not in STEP_FAILURES:
             raise StepsError(f"time.N = 'auto': the pilot run at N = {steps} failed: {error}") from None

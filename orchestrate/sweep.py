@@ -141,7 +141,7 @@ def run_one(scene_data: dict, folder: str) -> dict:
     from orchestrate.runner import run
 
     try:
-        run(Scene.model_validate(scene_data), folder, force=True, resume=True)
+        run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
     return row_of(Path(folder), "completed")
@@ -189,11 +189,19 @@ def plan(scene: str | Path, grid: dict[str, list], out: Path, base: dict | None 
     """Rows for runs of the scene with each combination of the grid's values (on top of `base`),
     in folders of `out` named by the values that run, and the jobs among them still to run. Its
     keys are checked first; two combinations that make the same run are refused."""
-    from orchestrate.runner import inputs_of
-
     require_distinct(grid)
     fields = grid_fields(scene, grid, base)
-    assignments = [dict(zip(grid, values)) for values in itertools.product(*grid.values())]
+    return plan_runs(scene, [dict(zip(grid, values)) for values in itertools.product(*grid.values())], out, base,
+                     fields)
+
+
+def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict | None = None,
+              fields: dict[str, str] | None = None) -> tuple[list, list]:
+    """`plan` for a list of assignments (the studies' ladders); `fields`: each key as the scene
+    model spells it (grid_fields), the keys themselves when not given."""
+    from orchestrate.runner import inputs_of
+
+    fields = fields or {key: key for assignment in assignments for key in assignment}
     rows, jobs, seen = [], [], {}
     for assignment in assignments:
         row = {**assignment, "folder": folder_name(assignment)}
@@ -217,15 +225,19 @@ def plan(scene: str | Path, grid: dict[str, list], out: Path, base: dict | None 
 
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
-          workers: int = 2, scheduler: str | None = None, progress: bool = False) -> list[dict]:
+          workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto") -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → lists of values) over the scene with
     `base` overrides; returns the rows of sweep.csv (written in `out`, also when interrupted). Keys
-    are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label."""
+    are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label.
+    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py)."""
+    from orchestrate.progress import wanted
+
+    shown = wanted(progress)
     out = Path(out).resolve()
     rows, jobs = plan(scene, grid, out, base)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        run_jobs(jobs, workers, scheduler, progress)
+        run_jobs(jobs, workers, scheduler, shown)
     finally:
         write_table(out / "sweep.csv", rows, list(grid))
     return rows
@@ -265,6 +277,7 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
         return
     from dask.distributed import as_completed
 
+    from orchestrate.progress import counter
     from orchestrate.runner import signals_as_interrupt
 
     import os
@@ -275,16 +288,10 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
     try:
         with signals_as_interrupt():
             futures = {client.submit(run_one, data, folder, pure=False): row for row, data, folder in jobs}
-            bar = None
-            if progress:
-                from tqdm import tqdm
-                bar = tqdm(total=len(futures), unit="run", desc="runs")
-            for future in as_completed(futures):
-                futures[future].update(future.result())
-                if bar is not None:
+            with counter(progress, len(futures), "run", "runs") as bar:
+                for future in as_completed(futures):
+                    futures[future].update(future.result())
                     bar.update(1)
-            if bar is not None:
-                bar.close()
     except BaseException:
         interrupted = True
         stop_workers(own)  # our own workers end at once, and their FreeFem++ with them

@@ -3,6 +3,7 @@ continued from its last checkpoint writes history.csv (its stepSeconds timing as
 and .pvd files identical to the bit to those of the same run uninterrupted; a checkpoint of other
 inputs is refused; `orchestrate run --resume` and sweeps continue by themselves."""
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -174,6 +175,21 @@ def test_run_resume_continues_a_killed_run_of_the_peel_scene(tmp_path):
     assert json.loads((out / "run.json").read_text())["restartedFrom"] > 0
     same_results(fresh.folder, out)
     assert "restart: from step" in (out / "run.log").read_text()
+
+
+def test_a_resumed_run_counts_its_steps_from_its_checkpoint(tmp_path, capsys):
+    """Its bar starts at the checkpoint's step, never shows the rows the killed run wrote after it
+    (the driver cuts them), and ends at N."""
+    from orchestrate.runner import checkpoint_step
+
+    out = tmp_path / "run"
+    killed_runner(out, 150)
+    partial = out.with_name("run.partial")
+    checkpoint, written = checkpoint_step(partial), rows(partial)
+    assert 0 < checkpoint < written
+    run(PEEL, out, PEEL_SET, resume=True, progress=True)
+    steps = [int(n) for n in re.findall(r"(\d+)/400\b", capsys.readouterr().err)]
+    assert steps[0] == checkpoint and steps[-1] == 400 and steps == sorted(steps)
 
 
 def test_resume_refuses_a_partial_run_of_other_inputs(tmp_path):
