@@ -130,7 +130,8 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     for both bodies), "per-body" (a colour bar each), or {field: (low, high)} (the others shared).
     Signed stresses take a diverging map centred on 0. Returns the colour range each colour bar
     shows ({field: (low, high)}, or per body {field: [(…), (…)]}), and "view" (x0, x1, y0, y1),
-    "magnification" and "time" as drawn."""
+    "magnification" and "time" as drawn, and "layout" (drawn_boxes: where the panels and texts are
+    in the image)."""
     import matplotlib.tri as mtri
 
     plt = pyplot()
@@ -163,7 +164,7 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
         (len(fields) * (panel_width + 1.4 * bars) + 0.4, panel_height + 1.0)
     width, height = size or across
     figure, axes = plt.subplots(len(fields) if stacked else 1, 1 if stacked else len(fields), figsize=(width, height),
-                                squeeze=False, constrained_layout=True)
+                                squeeze=False, constrained_layout=True, dpi=dpi)
     titles, shown = field_titles(units), {}
     for axis, field in zip(axes.flat, fields):
         values = [field_values(body, field) for body in bodies]
@@ -204,8 +205,33 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     stated = "undeformed" if factor == 0 else f"displacements magnified ×{factor:g}"
     figure.suptitle(f"{stated} (bodies drawn at x + {factor:g}·u)" if factor else stated, fontsize=9)
     figure.savefig(target, dpi=dpi)
+    shown["layout"] = drawn_boxes(figure, [axis for axis in axes.flat])
     plt.close(figure)
     return shown
+
+
+def drawn_boxes(figure, panels) -> dict:
+    """The boxes (x0, y0, x1, y1 in pixels of the image, y downwards) of the panels and of every
+    text drawn: tick labels, axis labels, titles, of the panels and of the colour bars."""
+    renderer = figure.canvas.get_renderer()
+    height = figure.bbox.height
+
+    def box(artist):
+        extent = artist.get_window_extent(renderer)
+        return (extent.x0, height - extent.y1, extent.x1, height - extent.y0)
+
+    def within(value, limits):  # matplotlib keeps labels of ticks beyond the view, undrawn
+        return min(limits) - 1e-9 * abs(np.ptp(limits)) <= value <= max(limits) + 1e-9 * abs(np.ptp(limits))
+
+    texts = list(figure.texts)  # the suptitle
+    for axis in figure.axes:
+        texts += [axis.title, axis.xaxis.label, axis.yaxis.label]
+        texts += [label for label in axis.get_xticklabels() if within(label.get_position()[0], axis.get_xlim())]
+        texts += [label for label in axis.get_yticklabels() if within(label.get_position()[1], axis.get_ylim())]
+    drawn = [text for text in texts if text.get_visible() and text.get_text()]
+    return {"panels": [box(panel) for panel in panels],
+            "bars": [box(axis) for axis in figure.axes if axis not in panels],
+            "texts": [(text.get_text(), box(text)) for text in drawn]}
 
 
 def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str]:

@@ -222,8 +222,11 @@ def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000
             rows += rows_of(Path(scratch) / "run", shown)
             bar.update(1)
     write_csv(out / "stability.csv", rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
+    sizes = "".join(f" --{flag} {','.join(f'{value:g}' for value in values)!r}"
+                    for flag, values, default in (("young", young, stability.__defaults__[0]),
+                                                  ("p-tau", glue, stability.__defaults__[1])) if tuple(values) != default)
     (out / "README.md").write_text(stability_report(rows, f"python -m orchestrate study stability "
-                                                          f"{Path(scene_path).as_posix()}"))
+                                                          f"{Path(scene_path).as_posix()}{sizes}"))
     plot(out / "stability.png", rows)
     return rows
 
@@ -267,15 +270,34 @@ def plot(target: Path, rows: list[dict]) -> None:
 NAME, HELP = "stability", "predicted against observed explicit time-step bound"
 
 
+def positive_values(text: str) -> tuple[float, ...]:
+    """A comma-separated list of positive numbers, or nothing (that family of cases left out)."""
+    import argparse
+
+    try:
+        values = tuple(float(item) for item in text.split(",") if item.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
+    if any(not value > 0 for value in values):
+        raise argparse.ArgumentTypeError(f"'{text}': every value must be > 0")
+    return values
+
+
 def add_arguments(parser) -> None:
+    defaults = stability.__defaults__
     parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
                                                                               "(default: scenes/paper.toml)")
     parser.add_argument("--out", default="results/stability", help="where the table and report go")
+    parser.add_argument("--young", type=positive_values, default=defaults[0], metavar="E1,E2,...",
+                        help="Young's moduli of the cases of the elastic bound (each with and without damage) "
+                             "and of the implicit schemes ('' leaves them out)")
+    parser.add_argument("--p-tau", type=positive_values, default=defaults[1], metavar="P1,P2,...",
+                        help="tangential glue stiffnesses p_τ of the glue-bound cases, per scheme ('' leaves them out)")
 
 
 def command(options) -> int:
     import sys
 
-    stability(options.scene, options.out, progress=sys.stderr.isatty())
+    stability(options.scene, options.out, young=options.young, glue=options.p_tau, progress=sys.stderr.isatty())
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -83,9 +83,18 @@ def test_a_run_without_progress_writes_nothing_to_stderr(tmp_path, capsys):
 
 
 def test_the_stability_study_counts_its_cases(tmp_path, capsys):
-    """Without Young's moduli or glue stiffnesses the study is its two damage-source cases."""
-    rows = stability(PAPER, tmp_path / "study", young=(), glue=(), progress=True)
+    """Without Young's moduli or glue stiffnesses (its size flags --young '' --p-tau '') the study
+    is its two damage-source cases, and its report's command says so."""
+    from orchestrate.cli import parser
+
+    options = parser().parse_args(["study", "stability", "--young", "", "--p-tau", ""])
+    assert (options.young, options.p_tau) == ((), ())
+    with pytest.raises(SystemExit):
+        parser().parse_args(["study", "stability", "--young", "100,-1"])
+    rows = stability(PAPER, tmp_path / "study", young=options.young, glue=options.p_tau, progress=True)
     shown = capsys.readouterr().err
+    assert "every value must be > 0" in shown
+    assert "--young '' --p-tau ''" in (tmp_path / "study" / "README.md").read_text()
     assert len(rows) == 2 and "2/2" in shown
     assert "damage source, euler" in shown and "damage source, bdf2" in shown
     assert "run: " in shown  # and each run's own bar

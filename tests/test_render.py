@@ -103,3 +103,30 @@ def test_the_images_label_the_scenes_units(tmp_path):
     assert units == {"length": "mm", "stress": "MPa", "force": "N/mm"}
     assert field_titles(units)["vonMises"] == "von Mises stress (MPa)"
     assert units_of(SimpleNamespace(folder=tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
+
+
+def overlap(a, b) -> bool:
+    return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
+
+
+@pytest.mark.parametrize("options", [{}, {"ranges": "per-body", "fields": ("vonMises", "sigma12", "zeta")},
+                                     {"size": (6, 4)}])
+def test_no_text_collides_and_every_panel_is_drawn_inside_the_image(coarse, tmp_path, options):
+    """The acceptance of the figures, off screen: every text (ticks, axis and colour-bar labels,
+    titles) inside the image and clear of every other text and of the panels' plotting areas
+    (a panel's own tick labels sit outside it); every panel holds a picture, not a blank."""
+    shown = render_fields(coarse, tmp_path / "fields.png", **options)
+    image = np.asarray(Image.open(tmp_path / "fields.png").convert("RGB"), dtype=float)
+    layout = shown["layout"]
+    height, width = image.shape[:2]
+    texts = layout["texts"]
+    assert len(texts) > 10
+    for index, (text, box) in enumerate(texts):
+        assert box[0] >= 0 and box[1] >= 0 and box[2] <= width and box[3] <= height, f"{text!r} is cut at the edge"
+        for other, other_box in texts[index + 1:]:
+            assert not overlap(box, other_box), f"{text!r} and {other!r} overlap"
+        for area in layout["panels"] + layout["bars"]:
+            assert not overlap(box, area), f"{text!r} is drawn over a panel or a colour bar"
+    for x0, y0, x1, y1 in layout["panels"]:
+        panel = image[int(y0) + 2:int(y1) - 2, int(x0) + 2:int(x1) - 2].reshape(-1, 3)
+        assert len(np.unique(panel, axis=0)) > 50, "a blank panel"
