@@ -1,7 +1,10 @@
 """Meshes of scene bodies, made with gmsh's Python API, cached by content and checked whole.
 
-The cache key is the .geo text and that of the files it includes, the -setnumber values and
-gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale one. A body
+The sources are read once and checked (orchestrate/geo.py: a .geo is gmsh code, and gmsh may not
+run programs or touch other files because a scene says so); gmsh meshes a private copy of the
+checked text. The cache key is that text and the text of the files it includes, the -setnumber
+values and gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale
+one. A body
 given only by its n uses the committed <geo>-n<n>.msh when it exists, the rule edp/main.edp
 follows, so a scene and the driver run by hand mesh the paper's scene identically.
 
@@ -16,6 +19,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
 import threading
@@ -25,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, dying_with_parent, stop_group
+from orchestrate.geo import GeoFile, copy_name, read_sources, write_copies
 
 CACHE = REPO / "results" / ".cache" / "meshes"
 BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
@@ -34,21 +39,8 @@ class MeshError(RuntimeError):
     """gmsh could not mesh a body, or a mesh file is not whole."""
 
 
-INCLUDE = re.compile(r'^\s*Include\s*"([^"]+)"', re.MULTILINE)
 DEFINE_CONSTANT = re.compile(r"DefineConstant\s*\[(.*?)\]\s*;", re.DOTALL)
 CONSTANT_NAME = re.compile(r"(?:^|,)\s*([A-Za-z_][A-Za-z_0-9]*)\s*=")
-
-
-def geo_sources(source: Path) -> list[Path]:
-    """A .geo file and every file it includes, however deep (gmsh resolves an Include against the
-    including file's folder), each once."""
-    found = [source.resolve()]
-    for path in found:
-        for name in INCLUDE.findall(path.read_text()):
-            included = (path.parent / name).resolve()
-            if included not in found:
-                found.append(included)
-    return found
 
 
 def geo_constants(source: Path) -> list[str]:
@@ -56,8 +48,8 @@ def geo_constants(source: Path) -> list[str]:
     (Only top-level `name = value` items: a constant given as {value, Min ..., Name "..."} is
     found by its name before the brace.)"""
     names = []
-    for path in geo_sources(source):
-        for block in DEFINE_CONSTANT.findall(re.sub(r"//[^\n]*", "", path.read_text())):
+    for file in read_sources(source):
+        for block in DEFINE_CONSTANT.findall(re.sub(r"//[^\n]*", "", file.text)):
             names += [name for name in CONSTANT_NAME.findall(re.sub(r"\{[^}]*\}", "0", block)) if name not in names]
     return names
 
@@ -157,11 +149,16 @@ def write_freefem(source: Path, target: Path) -> None:
 
 
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
+    return sources_key(read_sources(source), numbers, refine)
+
+
+def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int) -> str:
     import gmsh
 
     digest = hashlib.sha256()
-    for path in [*geo_sources(source), Path(__file__).with_name("gmsh_mesher.py")]:
-        digest.update(path.read_bytes())
+    for text in [file.text.encode("utf-8", "surrogateescape") for file in files]:
+        digest.update(text)
+    digest.update(Path(__file__).with_name("gmsh_mesher.py").read_bytes())
     digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
     digest.update(gmsh.__version__.encode())
     return digest.hexdigest()[:24]
@@ -192,20 +189,21 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
         read_msh(committed)
         return committed
     cache = cache or CACHE
-    target = cache / f"{source.stem}-{cache_key(source, numbers, refine)}.msh"
+    cache.mkdir(parents=True, exist_ok=True)
+    remove_orphans(cache)
+    files = read_sources(source)  # read once: the key and the mesh are of the same, checked text
+    target = cache / f"{source.stem}-{sources_key(files, numbers, refine)}.msh"
     if target.exists():
         try:
             read_msh(target)
             return target
         except MeshError:
             target.unlink(missing_ok=True)  # a damaged entry is rebuilt, never reused
-    cache.mkdir(parents=True, exist_ok=True)
-    remove_orphans(cache)
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
     if announce:
         announce()
     try:
-        generate(source, numbers, refine, partial)
+        generate(files, numbers, refine, partial)
         read_msh(partial)
         os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     finally:
@@ -214,13 +212,14 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
 
 
 def remove_orphans(cache: Path) -> None:
-    """Partial files of mesher processes that no longer run (killed while meshing)."""
-    for path in cache.glob("*.partial.msh"):
+    """Partial meshes and source copies of mesher processes that no longer run (killed while
+    meshing)."""
+    for path in [*cache.glob("*.partial.msh"), *cache.glob("*.partial.geo")]:
         try:
             pid = int(path.name.split(".")[-4])
             os.kill(pid, 0)
         except (ValueError, IndexError, ProcessLookupError):
-            path.unlink(missing_ok=True)
+            shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
         except PermissionError:
             pass  # another user's live process
 
@@ -236,30 +235,38 @@ def stop_meshing() -> None:
             stop_group(process)
 
 
-def generate(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
-    """Mesh in a fresh Python process: gmsh keeps every -setnumber value for the life of the
-    process (initialize/finalize do not reset them), so meshing in-process would give a later
-    body the constants of an earlier one that its own scene leaves at their defaults. The child
-    dies with this process."""
+def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, target: Path) -> None:
+    """Mesh the checked sources, from their private copies, in a fresh Python process: gmsh keeps
+    every -setnumber value for the life of the process (initialize/finalize do not reset them), so
+    meshing in-process would give a later body the constants of an earlier one that its own scene
+    leaves at their defaults. The child dies with this process."""
     # gmsh_mesher.py is run as a file, not as a module of this package, so the child imports gmsh
     # and the standard library only (the package's imports would cost it 0.45 s).
     child = Path(__file__).with_name("gmsh_mesher.py")
-    command = [sys.executable, str(child), str(source), json.dumps(numbers), str(refine), str(target)]
-    process = subprocess.Popen(dying_with_parent(command), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)
-    with _children_lock:
-        _children.add(process)
+    folder = target.with_suffix(".geo")  # beside the partial mesh: removed with it if this process is killed
+    folder.mkdir()
     try:
-        _, stderr = process.communicate()
-    finally:
+        command = [sys.executable, str(child), str(write_copies(files, folder)), json.dumps(numbers), str(refine),
+                   str(target)]
+        process = subprocess.Popen(dying_with_parent(command), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                   text=True, start_new_session=True)
         with _children_lock:
-            _children.discard(process)
+            _children.add(process)
+        try:
+            _, stderr = process.communicate()
+        finally:
+            with _children_lock:
+                _children.discard(process)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
     if process.returncode != 0:
         target.unlink(missing_ok=True)
+        for index, file in enumerate(files):  # gmsh names the copies; the user knows the sources
+            stderr = stderr.replace(str(folder / copy_name(index, file.path)), str(file.path))
         lines = stderr.strip().splitlines()
         reason = lines[-1] if lines else (f"killed by signal {-process.returncode}" if process.returncode < 0
                                           else f"exit code {process.returncode}")
-        raise MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+        raise MeshError(f"gmsh could not mesh {files[0].path.name} with {numbers}: {reason}")
 
 
 def estimated_nodes(source: Path, numbers: dict[str, float], refine: int, cache: Path | None = None) -> int:

@@ -210,6 +210,8 @@ def inputs_of(scene: Scene) -> dict:
     numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
+    for body in ("body1", "body2"):  # where a .geo lives changes no result: its text is in "meshes"
+        data[body]["mesh"].pop("geo")
     parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
              "freefemScene": hashlib.sha256(result_code(scene).encode()).hexdigest(),
              "solver": solver_sources_digest(),
@@ -305,7 +307,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
             reason = str(error) or "Ctrl-C"
             (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
             raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
-        except (SolverError, meshing.MeshError, SceneError, TooLarge, IncompleteRun) as error:
+        except (SolverError, meshing.MeshError, InputError, TooLarge, IncompleteRun) as error:
             fail_into(partial, failed, str(error))
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written

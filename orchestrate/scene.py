@@ -12,16 +12,19 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import os
 import re
 import tomllib
 import unicodedata
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
 
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
+from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import geo_constants
 from orchestrate.parameters import PARAMETERS, driver_values, field
 
@@ -102,11 +105,30 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+def geo_path(value: str, folder: Path) -> Path:
+    """Where a scene's mesh.geo is: an absolute path as is; a relative one beside the scene file
+    (`folder`), else, when no file is there, the repository's (meshes/...), so the project's scenes
+    and copies of them keep their `meshes/` paths. Either way the file is read and checked
+    (orchestrate/geo.py); the path returned has its symbolic links resolved."""
+    path = Path(value)
+    if not path.is_absolute():
+        beside, project = folder / path, REPO / path
+        in_meshes = project.resolve().is_relative_to(MESHES.resolve())
+        if not os.path.lexists(beside) and not (in_meshes and os.path.lexists(project)):
+            raise GeoError(f"gmsh source '{value}' not found beside the scene file ({beside})"
+                           + (f" nor in the repository ({project})" if in_meshes else ""))
+        path = beside if os.path.lexists(beside) else project
+    return read_sources(path)[0].path
+
+
 class Mesh(Strict):
-    """A gmsh source in meshes/ with its size parameter n (elements per side) and other
-    DefineConstant values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top,
-    4 left). A .geo file is gmsh code (it can run commands), so only the project's own are used."""
-    geo: str | None = Field(None, description="a gmsh source in meshes/ (a path from the repository), or give rectangle")
+    """A gmsh source with its size parameter n (elements per side) and other DefineConstant
+    values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top, 4 left). A .geo
+    file is gmsh code, so every one, the project's and a user's, and the files it includes, is
+    checked first: commands that run programs or touch other files are refused (orchestrate/geo.py)."""
+    geo: str | None = Field(None, description="a gmsh .geo file: absolute, or relative to the scene file's folder "
+                                              "(where none is there, the repository's meshes/...), checked before "
+                                              "gmsh reads it (README.md, Your own files); or give rectangle")
     rectangle: tuple[Real, Real, Real, Real] | None = Field(
         default=None, description="[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
     n: int = Field(strict=True, ge=1, le=4096, description="the mesh size parameter of the .geo (elements per side "
@@ -148,21 +170,16 @@ class Mesh(Strict):
 
     @field_validator("geo")
     @classmethod
-    def geo_file(cls, value):
+    def geo_file(cls, value, info: ValidationInfo):
+        """Resolved once, when the scene is read: the scene as data (a sweep's worker, scene.toml
+        in the run folder) names the same file wherever it is read."""
         if value is None:
             return value
-        path = (REPO / value).resolve()
-        if not path.is_relative_to(MESHES.resolve()):
-            raise ValueError(f"'{value}' is outside meshes/: a scene uses the project's gmsh sources "
-                             "(meshes/*.geo, a path relative to the repository)")
-        if path.suffix != ".geo":
-            raise ValueError(f"'{value}' is not a gmsh .geo file")
-        if not path.is_file():
-            raise ValueError(f"gmsh source '{value}' not found")
-        return value
+        folder = (info.context or {}).get("folder") or Path.cwd()
+        return str(geo_path(value, Path(folder)))
 
     def source(self) -> Path:
-        return MESHES / "rectangle.geo" if self.rectangle is not None else (REPO / self.geo).resolve()
+        return MESHES / "rectangle.geo" if self.rectangle is not None else Path(self.geo)
 
     def numbers(self) -> dict[str, float]:
         """The gmsh -setnumber values for this mesh."""
@@ -360,13 +377,16 @@ class Scene(Strict):
     @classmethod
     def load(cls, path: str | Path, overrides: dict | None = None) -> "Scene":
         path = Path(path)
-        return cls.from_dict(read_toml(path, "scene"), overrides, source=str(path))
+        return cls.from_dict(read_toml(path, "scene"), overrides, source=str(path), folder=path.absolute().parent)
 
     @classmethod
-    def from_dict(cls, data: dict, overrides: dict | None = None, source: str = "scene") -> "Scene":
+    def from_dict(cls, data: dict, overrides: dict | None = None, source: str = "scene",
+                  folder: Path | None = None) -> "Scene":
+        """A scene from its data; relative file paths in it (mesh.geo) are taken from `folder`, the
+        scene file's (by default the working folder)."""
         overrides = overrides or {}
         try:
-            return cls.model_validate(apply_overrides(data, overrides))
+            return cls.model_validate(apply_overrides(data, overrides), context={"folder": folder})
         except ValidationError as error:
             given = {field: key for key, field in resolve_keys(data, overrides).items()}
             raise SceneError(f"{source}:\n" + "\n".join(as_given(describe(e), given) for e in error.errors())) from None
@@ -500,9 +520,9 @@ def apply_overrides(data: dict, overrides: dict, option: str = "--set") -> dict:
 def as_given(line: str, given: dict[str, str]) -> str:
     """A message line about an overridden value (`given`: its key by index → the key as written),
     named as the override it came from, not as a line of the scene file."""
-    for field, key in given.items():
-        if line.startswith(tuple(f"{field}{end}" for end in ": .")):  # the key, its value, below it
-            return f"--set {key}{line[len(field):]}"
+    for name, key in given.items():
+        if line.startswith(tuple(f"{name}{end}" for end in ": .")):  # the key, its value, below it
+            return f"--set {key}{line[len(name):]}"
     return line
 
 

@@ -57,7 +57,7 @@ BAD = [
     ('fy = "-10*t"', 'fy = "exec(\\"ls\\")"', ["body1.boundary.1.fy", "'\"' is not allowed"]),
     ('fy = "-10*t"', 'fy = "-10*t; system(1)"', ["body1.boundary.1.fy", "';' is not allowed"]),
     ('fy = "-10*t"', "fz = \"-10*t\"", ["body1.boundary.1.fz: unknown key", "did you mean 'fy'"]),
-    ('geo = "meshes/paper_body1.geo"', 'geo = "../../etc/passwd.geo"', ["body1.mesh.geo", "outside meshes/"]),
+    ('geo = "meshes/paper_body1.geo"', 'geo = "../../etc/passwd.geo"', ["body1.mesh.geo", "not found beside the scene file"]),
     ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/nowhere.geo"', ["body1.mesh.geo", "not found"]),
     ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/paper_body1-n24.msh"', ["body1.mesh.geo", "not a gmsh .geo"]),
     ('geo = "meshes/paper_body1.geo"', 'geo = "meshes/paper_body1.geo"\nrectangle = [0, 6, 0, 6]',
