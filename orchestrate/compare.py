@@ -29,7 +29,7 @@ from orchestrate.results import Result, load_result
 
 QUANTITIES = ("errorV", "errorZeta", "errorBeta")
 NORMS = {"errorV": "normV", "errorZeta": "normZeta", "errorBeta": "normBeta"}
-SAME_TIME = 1e-9  # relative: output times of two runs are the same instant (errors.edp's own check)
+SAME_TIME = 1e-6  # of the smaller time step: output times of two runs that are the same instant
 
 
 def state_times(result: Result) -> list[tuple[float, Path]]:
@@ -42,15 +42,18 @@ def state_times(result: Result) -> list[tuple[float, Path]]:
 
 
 def common_states(a: Result, b: Result) -> list[tuple[Path, Path]]:
-    """The pairs of state files of a and b at the same instants."""
-    times_b = state_times(b)
+    """The pairs of state files of a and b at the same instants: times within SAME_TIME of the
+    smaller step of each other (output times are multiples of each run's k)."""
+    times_a, times_b = state_times(a), state_times(b)
+    missing = [str(run.folder) for run, times in ((a, times_a), (b, times_b)) if not times]
     pairs = []
-    for t, path in state_times(a):
-        match = [other for tb, other in times_b if abs(t - tb) <= SAME_TIME * max(1.0, abs(t))]
-        if match:
-            pairs.append((path, match[0]))
+    if not missing:
+        tolerance = SAME_TIME * min(a.params["k"], b.params["k"])
+        for t, path in times_a:
+            nearest = min(times_b, key=lambda entry: abs(entry[0] - t))
+            if abs(nearest[0] - t) <= tolerance:
+                pairs.append((path, nearest[1]))
     if not pairs:
-        missing = [str(run.folder) for run in (a, b) if not state_times(run)]
         why = (f"{' and '.join(missing)} saved no state (state_NNNN.txt)" if missing
                else "they saved their states at no common time (output.times)")
         raise RuntimeError(f"cannot compare {a.folder} and {b.folder}: {why}. compare reads the unknowns from the "
@@ -97,18 +100,31 @@ def area(points: np.ndarray, triangles: np.ndarray) -> float:
     return float(np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum() / 2)
 
 
+def edge_lengths(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(points[triangles] - points[np.roll(triangles, 1, axis=1)], axis=-1)
+
+
+def same_body(mesh_a: Path, mesh_b: Path) -> None:
+    """Raises unless the two meshes cover one body: their bounding boxes within the larger mesh
+    size of each other and their areas within 1 % (a curved side's polygon changes with h)."""
+    meshes = [triangulation(path) for path in (mesh_a, mesh_b)]
+    size = max(edge_lengths(*mesh).max() for mesh in meshes)
+    boxes = [np.concatenate([points.min(axis=0), points.max(axis=0)]) for points, _ in meshes]
+    areas = [area(*mesh) for mesh in meshes]
+    if np.abs(boxes[0] - boxes[1]).max() > size or not math.isclose(*areas, rel_tol=0.01):
+        raise RuntimeError(f"{mesh_a} and {mesh_b} are not meshes of the same body (areas {areas[0]:.6g} and "
+                           f"{areas[1]:.6g}, bounding boxes {np.round(boxes[0], 6).tolist()} and "
+                           f"{np.round(boxes[1], 6).tolist()}): compare runs of one scene, with its meshes refined "
+                           "or its steps or data changed")
+
+
 def nested_in(coarse: Path, fine: Path) -> bool:
     """Every triangle of the fine mesh lies in one triangle of the coarse mesh (so a P1 field of the
-    coarse mesh is P1 on the fine one, and its interpolation there is exact). Raises when the two
-    meshes do not cover the same domain."""
+    coarse mesh is P1 on the fine one, and its interpolation there is exact)."""
     from matplotlib.tri import Triangulation
 
     points, triangles = triangulation(coarse)
     fine_points, fine_triangles = triangulation(fine)
-    areas = [area(*mesh) for mesh in ((points, triangles), (fine_points, fine_triangles))]
-    if not math.isclose(*areas, rel_tol=1e-9):
-        raise RuntimeError(f"{coarse} and {fine} are not meshes of the same body (areas {areas[0]:.12g} and "
-                           f"{areas[1]:.12g}): compare runs of one scene, with its meshes refined or its steps changed")
     corners = fine_points[fine_triangles]                      # (triangles, 3 corners, 2)
     found = Triangulation(*points.T, triangles).get_trifinder()(*corners.mean(axis=1).T)
     if (found < 0).any():
@@ -116,7 +132,7 @@ def nested_in(coarse: Path, fine: Path) -> bool:
     a, b, c = (points[triangles[found, j]] for j in range(3))
     matrix = np.stack([b - a, c - a], axis=-1)                 # (triangles, 2, 2)
     local = np.einsum("tij,tkj->tki", np.linalg.inv(matrix), corners - a[:, None])  # barycentric (λ1, λ2)
-    size = math.sqrt(areas[0] / len(triangles))
+    size = math.sqrt(area(points, triangles) / len(triangles))
     tolerance = 1e-9 * max(1.0, float(np.abs(points).max()) / size)
     return bool((local >= -tolerance).all() and (local.sum(axis=-1) <= 1 + tolerance).all())
 
@@ -135,7 +151,8 @@ def differing_parameters(a: Result, b: Result) -> dict[str, tuple]:
 @dataclass
 class Comparison:
     """Two runs' distances at their common times. `reference` is the run whose meshes carry the
-    integrals (the finer; b when they have as many nodes) and whose norms the relative figures use."""
+    integrals and whose norms the relative figures use: the one with more nodes, else the one with
+    more steps, else b."""
     a: Result
     b: Result
     reference: str                       # "a" or "b"
@@ -158,6 +175,8 @@ class Comparison:
         lines.append(f"integrated on the meshes of {self.reference.upper()} ({reference.folder.name}); "
                      + ("the other's meshes nest in them: the figures are exact" if self.nested else
                         "the other's meshes do not nest in them: its interpolation error is part of the figures"))
+        lines.append(f"relative: to the norm of {self.reference.upper()} at that time; in the row max, the largest "
+                     "distance over the largest norm")
         lines.append(f"{'t':>10}  {'‖uA−uB‖_V':>12} {'relative':>10}  {'‖ζA−ζB‖_L2':>12} {'relative':>10}  "
                      f"{'‖βA−βB‖_L2':>12} {'relative':>10}")
         for row in self.rows:
@@ -176,8 +195,11 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     """The distances of two complete runs (load_result) at every time both saved their state."""
     a, b = (run if isinstance(run, Result) else load_result(run) for run in (run_a, run_b))
     pairs = common_states(a, b)
-    reference = "a" if mesh_nodes(a) > mesh_nodes(b) else "b"
-    run, ref = (b, a) if reference == "a" else (a, b)
+    for body in (1, 2):
+        same_body(a.mesh_file(body), b.mesh_file(body))
+    finer = (mesh_nodes(a), a.params["N"]) > (mesh_nodes(b), b.params["N"])
+    reference = "a" if finer else "b"
+    run, ref = (b, a) if finer else (a, b)
     nested = all(nested_in(run.mesh_file(i), ref.mesh_file(i)) for i in (1, 2))
     ordered = [(second, first) for first, second in pairs] if reference == "a" else pairs
     rows = distances(run, ref, ordered)
@@ -208,8 +230,13 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    comparison = compare(options.run_a, options.run_b)
+    from orchestrate.freefem import InputError
+    from orchestrate.manifest import FACTS, MANIFEST
+
     out = Path(options.out or f"compare-{Path(options.run_a).resolve().name}-{Path(options.run_b).resolve().name}")
+    if (out / MANIFEST).exists() or (out / FACTS).exists():
+        raise InputError(f"--out {out} is a run folder: its history.png would be replaced; give another folder")
+    comparison = compare(options.run_a, options.run_b)
     write(comparison, out)
     print(comparison.report())
     print(f"files: {out / 'comparison.csv'}, {out / 'report.txt'}, {out / 'history.png'}")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from pathlib import Path
 
 from orchestrate.freefem import InputError
@@ -18,6 +19,7 @@ from orchestrate.render import steady_axis
 from orchestrate.sweep import FIGURES
 
 DONE = ("completed", "skipped (complete)")
+FORMATS = (".png", ".pdf", ".svg")
 MEASURED = (*FIGURES, "wallSeconds", "contactItersPerStep")
 
 
@@ -29,8 +31,10 @@ def read_sweep(folder: str | Path) -> tuple[list[str], list[dict]]:
     with open(path, newline="") as handle:
         reader = csv.DictReader(handle)
         rows = list(reader)
-        keys = reader.fieldnames[:reader.fieldnames.index("folder")]
-    return keys, rows
+        columns = reader.fieldnames or []
+    if "folder" not in columns or not rows:
+        raise InputError(f"{path} holds no sweep's rows (a header with the swept keys, then folder, status, ...)")
+    return columns[:columns.index("folder")], rows
 
 
 def number(text: str) -> float | None:
@@ -67,7 +71,12 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
     (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg); log is "", "x", "y" or "xy"."""
     keys, rows = read_sweep(folder)
     x = x or keys[0]
+    target = Path(target) if target else Path(folder) / f"{y}-vs-{x}.png"
+    if target.suffix not in FORMATS:
+        raise InputError(f"--out {target}: give a file name ending in {', '.join(FORMATS)}")
     curves, ticks, left_out = series(keys, rows, x, y)
+    if not curves:
+        raise InputError(f"{folder}: no run of the sweep completed with a value of {y}: nothing to draw")
     figure, axis = pyplot().subplots(figsize=(7, 4.5))
     for label, points in curves.items():
         axis.plot(*zip(*points), "o-", label=label or None)
@@ -89,8 +98,7 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
     if len(curves) > 1:
         axis.legend(fontsize=8)
     if left_out:
-        axis.set_title(f"left out (did not complete): {', '.join(left_out)}"[:120], fontsize=8)
-    target = Path(target) if target else Path(folder) / f"{y}-vs-{x}.png"
+        axis.set_title(textwrap.fill(f"left out (did not complete): {', '.join(left_out)}", 110), fontsize=7)
     save(figure, target, dpi=dpi)
     return target
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from orchestrate.freefem import REPO
 from orchestrate.manifest import FACTS, MANIFEST, check_files, verify_manifest
 
 PARTS = ("body1", "body2", "contact")
@@ -46,15 +47,19 @@ class Result:
 
     def mesh_file(self, body: int) -> Path:
         """The gmsh file of a body: the run folder's copy (runs of orchestrate), else the file the
-        driver read (params_used.json; a relative name is taken from the run folder's parent)."""
+        driver read (params_used.json: a relative name as the driver resolves it, from the folder
+        FreeFem++ ran in, which is not on record: the current folder or the repository)."""
         own = self.folder / f"body{body}.msh"
         if own.is_file():
             return own
         named = Path(self.params[f"meshFile{body}"])
-        path = named if named.is_absolute() else self.folder.parent / named
-        if not path.is_file():
-            raise FileNotFoundError(f"{self.folder}: the mesh of body {body} ({named}) is no longer there")
-        return path
+        candidates = [named] if named.is_absolute() else [Path.cwd() / named, REPO / named]
+        for path in candidates:
+            if path.is_file():
+                return path
+        raise FileNotFoundError(f"{self.folder}: the mesh of body {body} ({named}) is not in "
+                                f"{' or '.join(str(path.parent) for path in candidates)}: run compare from the folder "
+                                "FreeFem++ ran in")
 
     def compare(self, other: "Result"):
         """The distances to another run in the model's norms (orchestrate/compare.py)."""

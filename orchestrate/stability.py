@@ -288,10 +288,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
                                                                               "(default: scenes/paper.toml)")
     parser.add_argument("--out", default="results/stability", help="where the table and report go")
-    parser.add_argument("--young", type=positive_values, default=defaults[0], metavar="E1,E2,...",
+    parser.add_argument("--young", type=positive_values, default=",".join(f"{v:g}" for v in defaults[0]), metavar="E1,E2,...",
                         help="Young's moduli of the cases of the elastic bound (each with and without damage) "
                              "and of the implicit schemes ('' leaves them out)")
-    parser.add_argument("--p-tau", type=positive_values, default=defaults[1], metavar="P1,P2,...",
+    parser.add_argument("--p-tau", type=positive_values, default=",".join(f"{v:g}" for v in defaults[1]), metavar="P1,P2,...",
                         help="tangential glue stiffnesses p_τ of the glue-bound cases, per scheme ('' leaves them out)")
 
 

@@ -113,8 +113,16 @@ def grid_of(items: list[str], path: str | Path | None) -> dict[str, list]:
 
 def grid_fields(scene: str | Path, grid: dict[str, list], base: dict | None) -> dict[str, str]:
     """Each grid key → that key by index in the scene with `base` applied, which refuses, before
-    anything runs, a label no condition or several carry and two keys naming one value."""
-    return resolve_keys(apply_overrides(read_toml(Path(scene), "scene"), base or {}), grid, "--grid")
+    anything runs, a label no condition or several carry and two keys naming one value, also a
+    grid key and a --set key (the grid would overrule the --set value, or every run be refused)."""
+    data = read_toml(Path(scene), "scene")
+    given = resolve_keys(data, base or {})
+    fields = resolve_keys(apply_overrides(data, base or {}), grid, "--grid")
+    for key, field in fields.items():
+        other = next((set_key for set_key, set_field in given.items() if set_field == field), None)
+        if other is not None:
+            raise SceneError(f"--grid {key} and --set {other} name the same value ({field}): give it once")
+    return fields
 
 
 def require_distinct(grid: dict[str, list]) -> None:
@@ -346,9 +354,10 @@ def command(options) -> int:
     from orchestrate.cli import parse_assignments
 
     base = parse_assignments(options.set, "--set")
-    if not options.images:
+    grid = grid_of(options.grid, options.grid_file)
+    if not options.images and "output.images" not in grid:
         base.setdefault("output.images", False)
-    rows = sweep(options.scene, grid_of(options.grid, options.grid_file), options.out, base,
+    rows = sweep(options.scene, grid, options.out, base,
                  workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
     width = max(len(row["folder"]) for row in rows)
     for row in rows:

@@ -7,6 +7,7 @@ closed everywhere with the pressure p. A P1 mortar discretization must reproduce
 (patch test), and its history must follow the scalar recursion of the scheme (docs/model.md §6), which
 `creep_recursion` computes here from the model's equations alone.
 """
+import subprocess
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,9 +100,12 @@ def blocks(tmp_path_factory):
     return blocks_run(tmp_path_factory.mktemp("blocks"), n=(7, 11), steps=N)
 
 
-def blocks_run(folder, n, steps):
+def blocks_run(folder, n, steps, split=False):
+    """The blocks on gmsh meshes with n elements per side, each triangle split in four with `split`."""
     upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=n[0])
     lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=n[1])
+    for mesh in (upper, lower) if split else ():
+        subprocess.run(["gmsh", "-refine", str(mesh), "-o", str(mesh), "-format", "msh22"], check=True, capture_output=True)
     return solve_ok(folder / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", steps,
                     "-outTimes", "all", "-outFields", "bodies,stress,contact,state", "-contactTol", 1e-14,
                     *BODIES[0].flags(1), *BODIES[1].flags(2), scene=SCENES / "blocks.idp")
@@ -149,16 +153,17 @@ def test_creep_follows_the_scalar_recursion(blocks):
             np.testing.assert_allclose(cell_field(mesh, "sigma12"), 0.0, rtol=0, atol=1e-10 * scale)
 
 
-def test_compare_is_exact_on_meshes_that_do_not_nest_when_the_fields_are_linear(blocks, tmp_path):
+@pytest.mark.parametrize("n, split", [((5, 8), False), ((7, 11), True)], ids=["not-nested", "nested"])
+def test_compare_gives_the_distances_of_the_creep_recursions(blocks, tmp_path, n, split):
     """The creep's u is linear and ζ constant in each body, so interpolating the coarser run onto the
-    finer run's meshes loses nothing although they do not nest: the distances at the common times
-    (every step of N = 25, every other step of N = 50) are those of the two recursions' uniform strains and
-    damage, times the bodies' areas."""
+    finer run's meshes loses nothing, whether they nest (the blocks' meshes split in four) or not:
+    the distances at the common times (every step of N = 25, every other step of N = 50) are those
+    of the two recursions' uniform strains and damage, times the bodies' areas."""
     from orchestrate.compare import compare
 
-    other = blocks_run(tmp_path, n=(5, 8), steps=2 * N)
+    other = blocks_run(tmp_path, n=n, steps=2 * N, split=split)
     comparison = compare(blocks, other)
-    assert comparison.reference == "a" and not comparison.nested
+    assert comparison.reference == ("b" if split else "a") and comparison.nested == split
     fine, coarse = creep_recursion(steps=N), creep_recursion(steps=2 * N)
     np.testing.assert_allclose([row["t"] for row in comparison.rows], np.arange(1, N + 1) * T / N, rtol=1e-12)
     areas = np.array(HEIGHT) * WIDTH
@@ -167,20 +172,45 @@ def test_compare_is_exact_on_meshes_that_do_not_nest_when_the_fields_are_linear(
         strain_distance = np.sqrt(np.sum(areas[:, None] * (a["strain"] - b["strain"]) ** 2))
         assert row["errorV"] == pytest.approx(strain_distance, rel=1e-8)
         assert row["errorZeta"] == pytest.approx(np.sqrt(np.sum(areas * (a["zeta"] - b["zeta"]) ** 2)), rel=1e-8)
-        assert row["normV"] == pytest.approx(a["normV"], rel=1e-10)
+        assert row["normV"] == pytest.approx((b if split else a)["normV"], rel=1e-10)
         assert row["errorBeta"] == 0  # no glue: β⁰ = 1 in both
     assert comparison.maximum("errorV") > 1e-3 * comparison.rows[-1]["normV"], "the runs should differ"
 
 
 def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
-    from orchestrate.compare import common_states, nested_in
+    from orchestrate.compare import common_states, nested_in, same_body
     from orchestrate.results import Result
 
     square = gmsh_mesh("meshes/rectangle.geo", tmp_path / "square.msh", x1=2, y0=0, y1=1, n=4)
     taller = gmsh_mesh("meshes/rectangle.geo", tmp_path / "taller.msh", x1=2, y0=0, y1=1.5, n=4)
-    with pytest.raises(RuntimeError, match="not meshes of the same body"):
-        nested_in(square, taller)
+    shifted = gmsh_mesh("meshes/rectangle.geo", tmp_path / "shifted.msh", x0=1, x1=3, y0=0, y1=1, n=4)
+    for other in (taller, shifted):  # another area; the same area elsewhere
+        with pytest.raises(RuntimeError, match="not meshes of the same body"):
+            same_body(square, other)
+    same_body(square, square)
     assert nested_in(square, square)
     (tmp_path / "empty").mkdir()
     with pytest.raises(RuntimeError, match='saved no state.*output.fields including "state"'):
         common_states(blocks, Result(tmp_path / "empty"))
+
+
+def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(tmp_path):
+    """T = 1e-9 with N = 4 and N = 2: each state of the coarser run is paired with the state at its
+    own instant, never with a neighbour that lies within an absolute tolerance."""
+    import json
+
+    from orchestrate.compare import common_states
+    from orchestrate.results import Result
+
+    def fake(name, steps):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "params_used.json").write_text(json.dumps({"k": 1e-9 / steps}))
+        for j in range(1, steps + 1):
+            (folder / f"state_{j:04d}.txt").write_text(f"{j * 1e-9 / steps!r} 0\n")
+        return Result(folder)
+
+    fine, coarse = fake("fine", 4), fake("coarse", 2)
+    pairs = common_states(fine, coarse)
+    assert [(a.name, b.name) for a, b in pairs] == [("state_0002.txt", "state_0001.txt"),
+                                                    ("state_0004.txt", "state_0002.txt")]

@@ -87,6 +87,7 @@ def test_bin_ff_ends_a_failure_with_its_error_line_and_names_a_missing_scene(tmp
     last (FreeFEM's call trace after exit(3) dropped), and a -DSCENE file that is not there named
     before FreeFEM's lexer fails on it without a name."""
     import subprocess
+    import time
 
     from orchestrate.freefem import REPO
 
@@ -101,3 +102,15 @@ def test_bin_ff_ends_a_failure_with_its_error_line_and_names_a_missing_scene(tmp
     assert missing.returncode == 3 and "the -DSCENE file 'nowhere.idp' is not there" in missing.stderr
     shown = ff("-help")
     assert shown.returncode == 0 and "-outFields (text, default 'bodies,stress,contact,state')" in shown.stdout
+    # A signal to bin/ff ends the run (FreeFem++ is bin/ff's own process, not an orphaned child).
+    running = subprocess.Popen([str(REPO / "bin" / "ff"), "edp/main.edp", "-N", "100000", "-out", str(tmp_path / "long")],
+                               cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    history = tmp_path / "long" / "history.csv"
+    while not history.exists():
+        assert running.poll() is None, "the long run ended by itself"
+        time.sleep(0.05)
+    running.terminate()
+    assert running.wait(timeout=10) != 0
+    rows = history.read_text().count("\n")
+    time.sleep(1.0)  # an orphaned FreeFem++ would write some hundred rows meanwhile
+    assert history.read_text().count("\n") == rows

@@ -261,6 +261,7 @@ def test_a_rerun_never_writes_into_its_run_folder_unless_told_and_a_cut_scene_pa
     assert {path.name: path.stat().st_mtime_ns for path in original.iterdir()} == before
     cut = tmp_path / "a#b"
     cut.mkdir()
+    (cut / "scene.idp").write_text((original / "scene.idp").read_text())  # there, as bin/ff checks first
     (tmp_path / "a").write_text((original / "scene.idp").read_text())  # what FreeFEM's macro reader would take
     done = subprocess.run([ff, str(REPO / "edp" / "main.edp"), "-DSCENE=a#b/scene.idp", "-out", "x"], cwd=tmp_path,
                           capture_output=True, text=True)

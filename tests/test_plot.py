@@ -45,3 +45,10 @@ def test_the_image_and_the_errors(table, capsys):
         series(*read_sweep(table), "glue.gammaNu", "normV")
     assert main(["plot", str(table.parent / "nowhere"), "--y", "normV"]) == 2
     assert "holds no sweep.csv" in capsys.readouterr().err
+    with pytest.raises(InputError, match=r"--out .*x.txt: give a file name ending in .png, .pdf, .svg"):
+        plot_sweep(table, "normV", target=table / "x.txt")
+    with pytest.raises(InputError, match="no run of the sweep completed with a value of betaMin"):
+        plot_sweep(table, "betaMin")  # no completed row has it
+    (table / "sweep.csv").write_text("")
+    with pytest.raises(InputError, match="holds no sweep's rows"):
+        read_sweep(table)

@@ -107,6 +107,8 @@ def test_compare_of_two_levels_gives_the_time_ladders_distances(quick, tmp_path,
     assert to_reference.relative("errorV") == pytest.approx(rows[0]["relativeErrorV"], rel=1e-12)
     itself = compare(middle, middle)
     assert all(row[quantity] == 0 for row in itself.rows for quantity in ("errorV", "errorZeta", "errorBeta"))
+    assert compare(middle, coarse).reference == "a"  # the same meshes: the run with more steps
+    assert main(["compare", str(coarse), str(middle), "--out", str(coarse)]) == 2  # a run folder: refused
     assert main(["compare", str(coarse), str(middle), "--out", str(tmp_path)]) == 0
     assert "the figures are exact" in capsys.readouterr().out
     assert (tmp_path / "history.png").stat().st_size > 10000 and (tmp_path / "comparison.csv").read_text().count("\n") == 1 + rows[0]["N"]

@@ -2,6 +2,7 @@
 the same sweep again runs only what did not complete. The grid's syntax: TOML lists of any value,
 boundary conditions by label, grid files."""
 import csv
+import re
 import subprocess
 import sys
 
@@ -178,3 +179,13 @@ def test_a_sweep_of_two_loads_with_commas_scales_the_contact_force_as_the_loads_
     assert float(single["contactForce"]) > 1  # in contact
     assert float(double["contactForce"]) / float(single["contactForce"]) == pytest.approx(2, rel=1e-9)
     assert float(double["normV"]) / float(single["normV"]) == pytest.approx(2, rel=1e-9)
+
+
+def test_a_grid_key_that_names_a_set_value_is_refused_before_anything_runs(tmp_path):
+    """However each is spelt, --set and --grid naming one value would either let the grid overrule
+    the --set value silently or make every run invalid."""
+    for set_key, grid_key in (("time.N", "time.N"), ("body1.boundary.1.fy", "body1.boundary[label=4].fy")):
+        with pytest.raises(SceneError, match=rf"--grid .* and --set {re.escape(set_key)} name the same value"):
+            plan(SCENE, {grid_key: ["-10*t", "-20*t"] if "fy" in grid_key else [20, 40]}, tmp_path / "out",
+                 {**BASE, set_key: "-5*t" if "fy" in set_key else 80})
+    assert not (tmp_path / "out").exists()
