@@ -66,9 +66,9 @@ def series(keys: list[str], rows: list[dict], x: str, y: str) -> tuple[dict, dic
 
 
 def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | Path | None = None,
-               log: str = "", dpi: int = 110) -> Path:
+               log: str = "none", dpi: int = 110) -> Path:
     """Draw `y` of every completed run against the swept key `x` (default: the first) into `target`
-    (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg); log is "", "x", "y" or "xy"."""
+    (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg); log is "none", "x", "y" or "xy"."""
     keys, rows = read_sweep(folder)
     x = x or keys[0]
     target = Path(target) if target else Path(folder) / f"{y}-vs-{x}.png"
@@ -112,9 +112,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("sweep", metavar="SWEEP", help="a sweep folder (the --out of `sweep`)")
     parser.add_argument("--y", required=True, choices=MEASURED, metavar="FIGURE",
                         help=f"the figure drawn: one of {', '.join(MEASURED)}")
-    parser.add_argument("--x", help="the swept key along the axis (default: the first swept key); the other swept "
+    parser.add_argument("--x", metavar="KEY", help="the swept key along the axis (default: the first swept key); the other swept "
                                     "keys give one curve per combination")
-    parser.add_argument("--log", choices=("", "x", "y", "xy"), default="", help="logarithmic axes")
+    parser.add_argument("--log", choices=("none", "x", "y", "xy"), default="none", help="which axes are logarithmic")
     parser.add_argument("--out", help="the image file, .png, .pdf or .svg (default: <SWEEP>/<FIGURE>-vs-<KEY>.png)")
 
 
