@@ -375,20 +375,23 @@ class Scene(Strict):
         return self
 
     @classmethod
-    def load(cls, path: str | Path, overrides: dict | None = None) -> "Scene":
+    def load(cls, path: str | Path, overrides: dict | None = None, grid: tuple = ()) -> "Scene":
         path = Path(path)
-        return cls.from_dict(read_toml(path, "scene"), overrides, source=str(path), folder=path.absolute().parent)
+        return cls.from_dict(read_toml(path, "scene"), overrides, source=str(path), folder=path.absolute().parent,
+                             grid=grid)
 
     @classmethod
     def from_dict(cls, data: dict, overrides: dict | None = None, source: str = "scene",
-                  folder: Path | None = None) -> "Scene":
+                  folder: Path | None = None, grid: tuple = ()) -> "Scene":
         """A scene from its data; relative file paths in it (mesh.geo) are taken from `folder`, the
-        scene file's (by default the working folder)."""
+        scene file's (by default the working folder). A refused override is named as given: by
+        --grid for the keys of `grid`, by --set for the others."""
         overrides = overrides or {}
         try:
             return cls.model_validate(apply_overrides(data, overrides), context={"folder": folder})
         except ValidationError as error:
-            given = {field: key for key, field in resolve_keys(data, overrides).items()}
+            given = {field: (key, "--grid" if key in grid else "--set")
+                     for key, field in resolve_keys(data, overrides).items()}
             raise SceneError(f"{source}:\n" + "\n".join(as_given(describe(e), given) for e in error.errors())) from None
 
     def with_overrides(self, overrides: dict) -> "Scene":
@@ -517,12 +520,12 @@ def apply_overrides(data: dict, overrides: dict, option: str = "--set") -> dict:
     return data
 
 
-def as_given(line: str, given: dict[str, str]) -> str:
-    """A message line about an overridden value (`given`: its key by index → the key as written),
-    named as the override it came from, not as a line of the scene file."""
-    for name, key in given.items():
+def as_given(line: str, given: dict[str, tuple[str, str]]) -> str:
+    """A message line about an overridden value (`given`: its key by index → the key as written
+    and its option), named as the override it came from, not as a line of the scene file."""
+    for name, (key, option) in given.items():
         if line.startswith(tuple(f"{name}{end}" for end in ": .")):  # the key, its value, below it
-            return f"--set {key}{line[len(name):]}"
+            return f"{option} {key}{line[len(name):]}"
     return line
 
 

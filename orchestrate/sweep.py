@@ -215,7 +215,7 @@ def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict 
         row = {**assignment, "folder": folder_name(assignment)}
         rows.append(row)
         try:
-            resolved = Scene.load(scene, {**(base or {}), **assignment})
+            resolved = Scene.load(scene, {**(base or {}), **assignment}, grid=tuple(assignment))
         except SceneError as error:
             row.update(status="invalid", error=" | ".join(str(error).splitlines()[1:]) or str(error))
             continue
