@@ -19,7 +19,11 @@ Include whose file name is computed, the options of every category but Mesh and 
 (General, Solver, Print, PostProcessing and View options name files and programs gmsh uses) and
 Geometry's DoubleClicked commands (gmsh code of their own); and what gmsh's lexer may read
 otherwise than this check: a NUL byte, a comment or string never closed, a string beyond gmsh's
-1023 characters.
+1023 characters, and in a block gmsh may skip (If … EndIf, For … EndFor, Macro or Function …
+Return) what its skipping reads otherwise (`blocks`).
+
+The mesher is also confined where the kernel offers Landlock (gmsh_mesher.py): no program may
+be started and no file written but its target, whatever this check missed.
 """
 from __future__ import annotations
 
@@ -162,6 +166,50 @@ def source_file(path: Path, what: str) -> Path:
     return resolved
 
 
+OPENERS = {"If": "EndIf", "For": "EndFor", "Macro": "Return", "Function": "Return"}
+# gmsh skips a block it does not run (an If branch not taken, a For of no turns, a Macro's body)
+# by reading raw characters for its keywords (Gmsh.l, skip and skipTest): after an R, E, I or F
+# that begins a word it reads ahead, and gives back all but the character after that letter; after
+# a nested For or If it eats a few more. A quote, / or * there can make it end the block where this
+# check sees a string or comment (or the reverse), so code that runs would go unchecked; and it
+# finds its keywords inside strings and comments as well.
+LOST_CHARACTER = re.compile(r"""(?<![A-Za-z0-9_])[REIF][^\n]{0,4}?["'/*]""")
+SKIP_WORDS = re.compile(r"If|EndIf|ElseIf|Else|For|EndFor|Return|Macro|Function")
+
+
+def blocks(items: list[Token], text: str) -> list[tuple[int, int]]:
+    """The spans of the text that gmsh may skip: from each If, For, Macro or Function to its end
+    (the end of the file when it has none)."""
+    spans, open_blocks = [], []
+    for token in items:
+        if token.kind != "name":
+            continue
+        if token.text in OPENERS:
+            open_blocks.append(token)
+        elif open_blocks and OPENERS[open_blocks[-1].text] == token.text:
+            spans.append((open_blocks.pop().start, token.end))
+    spans += [(token.start, len(text)) for token in open_blocks]
+    return spans
+
+
+def skipped_refusal(text: str, start: int, end: int) -> tuple[int, str] | None:
+    """Where and why a block gmsh may skip is refused, or None."""
+    block = text[start:end]
+    lost = LOST_CHARACTER.search(block)
+    if lost:
+        return start + lost.start(), (f"'{lost.group()}' in a block gmsh may skip: gmsh skips such a block by reading "
+                                      "characters for its keywords and, after R, E, I or F, may lose the next one, "
+                                      "so a quote, / or * that near could hide code from this check (write it so "
+                                      "that none follows within five characters, e.g. 0.5*R for R/2, or move it out "
+                                      "of the block)")
+    for match in TOKEN.finditer(block):
+        if match.lastgroup in ("comment", "string") and SKIP_WORDS.search(match.group()):
+            return start + match.start(), (f"{match.group()[:40]!r} in a block gmsh may skip: gmsh finds "
+                                           f"'{SKIP_WORDS.search(match.group()).group()}' inside strings and "
+                                           "comments there, so where the block ends cannot be checked")
+    return None
+
+
 def _check(path: Path, text: str, includer: str) -> list[tuple[Token, int]]:
     """Refuse what the text may not do; return its Include literals."""
     if "\0" in text:
@@ -176,6 +224,10 @@ def _check(path: Path, text: str, includer: str) -> list[tuple[Token, int]]:
             raise GeoError(f"{path}, line {text.count(chr(10), 0, token.start) + 1}{includer}: {refused}; {WHY}")
         if token.text == "Include":
             includes.append((items[index + 1], text.count("\n", 0, token.start) + 1))
+    for start, end in blocks(items, text):
+        refused = skipped_refusal(text, start, end)
+        if refused:
+            raise GeoError(f"{path}, line {text.count(chr(10), 0, refused[0]) + 1}{includer}: {refused[1]}; {WHY}")
     return includes
 
 

@@ -3,12 +3,58 @@
     python orchestrate/gmsh_mesher.py SOURCE.geo '{"n": 24}' REFINE TARGET.msh
 
 It imports gmsh and the standard library only, and exits with gmsh's error lines as its message.
+Before gmsh reads the source, the process confines itself with Landlock where the kernel offers it
+(Linux 5.13 and later, when enabled): from then on it and its children may start no program and
+write no file but in the target's folder. The .geo check (orchestrate/geo.py) refuses what gmsh
+could do otherwise; this holds even for what the check might miss.
 """
 from __future__ import annotations
 
+import ctypes
 import json
+import os
 import sys
 from pathlib import Path
+
+# Landlock (linux/landlock.h): its system calls (the same numbers on x86-64 and the generic table
+# of arm64) and filesystem rights, by ABI version.
+CREATE_RULESET, ADD_RULE, RESTRICT_SELF = 444, 445, 446
+EXECUTE, WRITE_FILE, REMOVE_DIR, REMOVE_FILE = 1 << 0, 1 << 1, 1 << 4, 1 << 5
+MAKE = sum(1 << bit for bit in range(6, 13))  # character devices, folders, files, sockets, fifos, block devices, links
+MAKE_REG, REFER, TRUNCATE = 1 << 8, 1 << 13, 1 << 14
+PR_SET_NO_NEW_PRIVS = 38
+
+
+class PathBeneath(ctypes.Structure):
+    _pack_ = 1
+    _fields_ = [("allowed_access", ctypes.c_uint64), ("parent_fd", ctypes.c_int32)]
+
+
+def confine(writable: Path) -> bool:
+    """From now on this process and its children execute nothing and write only beneath
+    `writable`; False when the kernel has no Landlock (the .geo check is then the only guard)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.syscall.restype = ctypes.c_long
+    abi = libc.syscall(CREATE_RULESET, None, ctypes.c_size_t(0), ctypes.c_uint32(1))
+    if abi < 1:
+        return False
+    handled = EXECUTE | WRITE_FILE | REMOVE_DIR | REMOVE_FILE | MAKE | (REFER if abi >= 2 else 0) \
+        | (TRUNCATE if abi >= 3 else 0)
+    attribute = ctypes.c_uint64(handled)  # struct landlock_ruleset_attr, its first member only
+    ruleset = libc.syscall(CREATE_RULESET, ctypes.byref(attribute), ctypes.c_size_t(8), ctypes.c_uint32(0))
+    if ruleset < 0:
+        raise OSError(ctypes.get_errno(), "landlock_create_ruleset")
+    folder = os.open(writable, os.O_PATH | os.O_CLOEXEC)
+    try:
+        rule = PathBeneath(WRITE_FILE | MAKE_REG | REMOVE_FILE | (TRUNCATE if abi >= 3 else 0), folder)
+        if libc.syscall(ADD_RULE, ruleset, 1, ctypes.byref(rule), 0) < 0:  # 1: LANDLOCK_RULE_PATH_BENEATH
+            raise OSError(ctypes.get_errno(), "landlock_add_rule")
+        if libc.prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0 or libc.syscall(RESTRICT_SELF, ruleset, 0) < 0:
+            raise OSError(ctypes.get_errno(), "landlock_restrict_self")
+    finally:
+        os.close(folder)
+        os.close(ruleset)
+    return True
 
 
 def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
@@ -23,7 +69,12 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> 
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.logger.start()
+        confine(target.parent)
         gmsh.open(str(source))
+        # The file is the one the runner reads: one gmsh 2.2 text file, whatever the .geo set.
+        gmsh.option.setNumber("Mesh.MshFileVersion", 2.2)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.option.setNumber("Mesh.PartitionSplitMeshFiles", 0)
         errors = [line for line in gmsh.logger.get() if line.startswith("Error")]
         if errors:
             raise RuntimeError("; ".join(errors))

@@ -4,9 +4,9 @@ The sources are read once and checked (orchestrate/geo.py: a .geo is gmsh code, 
 run programs or touch other files because a scene says so); gmsh meshes a private copy of the
 checked text. The cache key is that text and the text of the files it includes, the -setnumber
 values and gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale
-one. A body
-given only by its n uses the committed <geo>-n<n>.msh when it exists, the rule edp/main.edp
-follows, so a scene and the driver run by hand mesh the paper's scene identically.
+one. A body given only by its n uses the committed <geo>-n<n>.msh of meshes/ when it exists, the
+rule edp/main.edp follows, so a scene and the driver run by hand mesh the paper's scene
+identically.
 
 gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
 .msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
@@ -165,9 +165,11 @@ def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int) ->
 
 
 def committed_mesh(source: Path, numbers: dict[str, float], refine: int) -> Path | None:
-    """The committed <geo>-n<n>.msh a body given only by n uses, when there is one."""
+    """The committed <geo>-n<n>.msh a body given only by n uses, when there is one: the project's
+    own, in meshes/ (a file beside a user's .geo is not read unchecked as its mesh)."""
     committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
-    return committed if set(numbers) == {"n"} and refine == 0 and committed.exists() else None
+    own = source.resolve().parent == (REPO / "meshes").resolve() and committed.is_file() and not committed.is_symlink()
+    return committed if set(numbers) == {"n"} and refine == 0 and own else None
 
 
 def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0) -> str:

@@ -3,6 +3,7 @@ file's folder), every .geo is checked before gmsh reads it (gmsh's language runs
 writes files), and a run folder holds what reruns it: `bin/ff edp/main.edp -DSCENE=<run>/scene.idp
 -out DIR` from the repository root gives the run's history again."""
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -259,6 +260,11 @@ def test_a_rerun_never_writes_into_its_run_folder_unless_told_and_a_cut_scene_pa
     message = "'results/run' (the default of -out) is the scene file's own folder"
     assert done.returncode == 3 and message in done.stdout + done.stderr
     assert {path.name: path.stat().st_mtime_ns for path in original.iterdir()} == before
+    shutil.copytree(original, tmp_path / "other")  # another run's scene, rerun into the default folder
+    done = subprocess.run([ff, str(REPO / "edp" / "main.edp"), "-DSCENE=other/scene.idp"], cwd=tmp_path,
+                          capture_output=True, text=True)
+    assert done.returncode == 3 and "'results/run' (the default of -out) holds a run" in done.stdout + done.stderr
+    assert {path.name: path.stat().st_mtime_ns for path in original.iterdir()} == before
     cut = tmp_path / "a#b"
     cut.mkdir()
     (cut / "scene.idp").write_text((original / "scene.idp").read_text())  # there, as bin/ff checks first
@@ -267,3 +273,69 @@ def test_a_rerun_never_writes_into_its_run_folder_unless_told_and_a_cut_scene_pa
                           capture_output=True, text=True)
     assert done.returncode == 3 and "-DSCENE='a#b/scene.idp' reached FreeFEM as 'a'" in done.stdout + done.stderr
     assert not (tmp_path / "x").exists()
+
+
+# Blocks that gmsh skips by reading raw characters (Gmsh.l's skip), where it loses the character
+# after an R, E, I or F: the System line runs although it looks like the inside of a string or
+# comment to a reader that takes the file token by token (found by review).
+SKIPPED = {
+    "macro": "Macro Mhide\n R\" Return\nSystem 'touch {marker}';\ns = \";\nReturn\n// \";\n",
+    "if": "If (0)\n E\" EndIf\nSystem 'touch {marker}';\ns = \";\nEndIf\n// \";\n",
+    "for": "For i In {{1:0}}\n E\" EndFor\nSystem 'touch {marker}';\ns = \";\nEndFor\n// \";\n",
+    "function": "Function F\n R/* Return\nSystem 'touch {marker}';\n/* */\nReturn\n",
+}
+
+
+def hidden(tmp_path, form) -> tuple[Path, Path]:
+    marker = tmp_path / "x"
+    source = tmp_path / "block.geo"
+    source.write_text(SKIPPED[form].format(marker=marker) + RECTANGLE)
+    return source, marker
+
+
+@pytest.mark.parametrize("form", SKIPPED)
+def test_code_hidden_from_the_check_by_gmsh_s_skipping_is_refused(tmp_path, form):
+    source, marker = hidden(tmp_path, form)
+    subprocess.run([sys.executable, "-c", "import gmsh, sys; gmsh.initialize(); gmsh.option.setNumber("
+                    "'General.Terminal', 0); gmsh.open(sys.argv[1])", str(source)], capture_output=True)
+    assert marker.exists(), "gmsh should run the hidden line (the hazard this test guards against)"
+    with pytest.raises(GeoError, match=r"block.geo, line 2: .* in a block gmsh may skip"):
+        read_sources(source)
+
+
+@pytest.mark.parametrize("form", SKIPPED)
+def test_the_mesher_starts_no_program_whatever_the_check_misses(tmp_path, form):
+    """The mesher given such a file without the check: Landlock stops gmsh's System."""
+    probe = subprocess.run([sys.executable, "-c", "import sys, pathlib; sys.path.insert(0, sys.argv[1]); "
+                            "from orchestrate.gmsh_mesher import confine; print(confine(pathlib.Path(sys.argv[2])))",
+                            str(REPO), str(tmp_path)], capture_output=True, text=True, check=True)
+    if probe.stdout.strip() != "True":
+        pytest.skip("this kernel has no Landlock: the .geo check is the only guard")
+    source, marker = hidden(tmp_path, form)
+    (tmp_path / "out").mkdir()
+    mesher = subprocess.run([sys.executable, str(REPO / "orchestrate" / "gmsh_mesher.py"), str(source), '{"n": 4}', "0",
+                             str(tmp_path / "out" / "block.msh")], capture_output=True, text=True)
+    assert not marker.exists() and mesher.returncode != 0 and "/bin/sh" in mesher.stderr
+
+
+def test_the_mesher_writes_its_one_target_whatever_the_geo_sets(tmp_path):
+    """A .geo may set mesh options, but the file written is one gmsh 2.2 text file, the target."""
+    source = tmp_path / "block.geo"
+    source.write_text(RECTANGLE + "Mesh 2; Mesh.PartitionSplitMeshFiles = 1; Mesh.Binary = 1; PartitionMesh 3;\n")
+    read_sources(source)  # nothing refused: these are mesh options
+    target = tmp_path / "out" / "block.msh"
+    target.parent.mkdir()
+    subprocess.run([sys.executable, str(REPO / "orchestrate" / "gmsh_mesher.py"), str(source), '{"n": 4}', "0",
+                    str(target)], check=True, capture_output=True)
+    assert [path.name for path in target.parent.iterdir()] == ["block.msh"]
+    assert target.read_text().startswith("$MeshFormat\n2.2 0 8\n")
+
+
+def test_ordinary_loops_and_tests_pass_and_a_slash_right_after_a_name_s_first_letter_in_one_is_refused(tmp_path):
+    source = tmp_path / "block.geo"
+    source.write_text(RECTANGLE + 'For i In {1:3}\n  Point(10 + i) = {0.25*i, 0.5, 0, 0.1};\nEndFor\n'
+                      'If (n < 1)\n  Error("n = %g must be at least 1", n);\nEndIf\n')
+    read_sources(source)
+    source.write_text(RECTANGLE + "R = 2;\nIf (n > 1)\n  r = R/2;\nEndIf\n")
+    with pytest.raises(GeoError, match=r"'R/' in a block gmsh may skip.*e\.g\. 0\.5\*R for R/2"):
+        read_sources(source)
