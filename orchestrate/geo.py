@@ -20,7 +20,7 @@ Include whose file name is computed, the options of every category but Mesh and 
 Geometry's DoubleClicked commands (gmsh code of their own); and what gmsh's lexer may read
 otherwise than this check: a NUL byte, a comment or string never closed, a string beyond gmsh's
 1023 characters, and in a block gmsh may skip (If … EndIf, For … EndFor, Macro or Function …
-Return) what its skipping reads otherwise (`blocks`).
+Return) what its skipping reads otherwise (`blocks`, `skip_refusal`).
 
 The mesher is also confined where the kernel offers Landlock (gmsh_mesher.py): no program may
 be started and no file written but its target, whatever this check missed.
@@ -167,14 +167,18 @@ def source_file(path: Path, what: str) -> Path:
 
 
 OPENERS = {"If": "EndIf", "For": "EndFor", "Macro": "Return", "Function": "Return"}
+KEYWORDS = ("ElseIf", "Else", "EndIf", "If", "EndFor", "For", "Return", "Macro", "Function")
 # gmsh skips a block it does not run (an If branch not taken, a For of no turns, a Macro's body)
-# by reading raw characters for its keywords (Gmsh.l, skip and skipTest): after an R, E, I or F
-# that begins a word it reads ahead, and gives back all but the character after that letter; after
-# a nested For or If it eats a few more. A quote, / or * there can make it end the block where this
-# check sees a string or comment (or the reverse), so code that runs would go unchecked; and it
-# finds its keywords inside strings and comments as well.
-LOST_CHARACTER = re.compile(r"""(?<![A-Za-z0-9_])[REIF][^\n]{0,4}?["'/*]""")
-SKIP_WORDS = re.compile(r"If|EndIf|ElseIf|Else|For|EndFor|Return|Macro|Function")
+# by reading raw characters for its keywords (Gmsh.y, skip and skipTest), a keyword being letters
+# [A-Za-z_] after a character that is none (a digit counts as a separator). After a candidate R,
+# E, I or F it reads ahead and gives back all but the character after that letter; after a nested
+# If or For it keeps the 3 or 4 characters it read past it. A quote or / lost there makes it miss a
+# string or comment that this check sees, so it could end the block inside one and run what this
+# check took for its text; an E kept there hides an EndIf. And a For or Macro starts its next turn
+# or call on the line after its header, so the rest of that line must hold no string or comment.
+LOST_CHARACTER = re.compile(r"""[REIF]["'/]""")
+OVER_READ = re.compile(r"""(?<![A-Za-z_])(?:If|For)[^\n\r]{0,3}["'/E]""")
+REST_OF_LINE = re.compile(r"[ \t]*(?://[^\n\r]*)?(?:[\n\r]|$)")
 
 
 def blocks(items: list[Token], text: str) -> list[tuple[int, int]]:
@@ -192,21 +196,51 @@ def blocks(items: list[Token], text: str) -> list[tuple[int, int]]:
     return spans
 
 
+def hidden_keyword(name: str) -> str | None:
+    """A keyword gmsh's skipping finds inside the name `name` (after a digit, or followed by one),
+    which this check does not take for one."""
+    for start in [0, *(position for position in range(1, len(name)) if name[position - 1].isdigit())]:
+        for keyword in KEYWORDS:
+            rest = name[start + len(keyword):]
+            if name.startswith(keyword, start) and name != keyword and not (rest[:1].isalpha() or rest[:1] == "_"):
+                return keyword
+    return None
+
+
+def skip_refusal(items: list[Token], index: int, text: str) -> str | None:
+    """What gmsh's skipping could read otherwise than this check at token `index`, or None."""
+    token = items[index]
+    if token.kind != "name":
+        return None
+    keyword = hidden_keyword(token.text)
+    if keyword:
+        return (f"the name {token.text}: gmsh's skipping of a block reads '{keyword}' in it (a digit ends a keyword "
+                "there), where this check sees a name")
+    if token.text in ("For", "Macro", "Function"):
+        header = index + 1  # For: its range in () or {}; Macro, Function: the name
+        if token.text == "For":
+            while header < len(items) and items[header].text not in ("(", "{"):
+                header += 1
+            header = _closing(items, header, items[header].text, ")" if items[header].text == "(" else "}") \
+                if header < len(items) else header
+        end = items[header].end if header < len(items) else len(text)
+        if not REST_OF_LINE.match(text, end):
+            return (f"code on the line of a {token.text} header: gmsh starts each turn or call on the next line, so "
+                    "the rest of this one may hold no string or comment (put the body on the lines below)")
+    return None
+
+
 def skipped_refusal(text: str, start: int, end: int) -> tuple[int, str] | None:
     """Where and why a block gmsh may skip is refused, or None."""
     block = text[start:end]
-    lost = LOST_CHARACTER.search(block)
-    if lost:
-        return start + lost.start(), (f"'{lost.group()}' in a block gmsh may skip: gmsh skips such a block by reading "
-                                      "characters for its keywords and, after R, E, I or F, may lose the next one, "
-                                      "so a quote, / or * that near could hide code from this check (write it so "
-                                      "that none follows within five characters, e.g. 0.5*R for R/2, or move it out "
-                                      "of the block)")
-    for match in TOKEN.finditer(block):
-        if match.lastgroup in ("comment", "string") and SKIP_WORDS.search(match.group()):
-            return start + match.start(), (f"{match.group()[:40]!r} in a block gmsh may skip: gmsh finds "
-                                           f"'{SKIP_WORDS.search(match.group()).group()}' inside strings and "
-                                           "comments there, so where the block ends cannot be checked")
+    for pattern, what in ((LOST_CHARACTER, "after R, E, I or F it may lose the next character"),
+                          (OVER_READ, "after a nested If or For it keeps the next few characters unread")):
+        found = pattern.search(block)
+        if found:
+            return start + found.start(), (f"'{found.group()}' in a block gmsh may skip: gmsh skips such a block by "
+                                           f"reading characters for its keywords and {what}, so a quote, / or EndIf "
+                                           "there could hide code from this check (write it another way, e.g. 0.5*R "
+                                           "for R/2, or move it out of the block)")
     return None
 
 
@@ -219,7 +253,7 @@ def _check(path: Path, text: str, includer: str) -> list[tuple[Token, int]]:
     items = tokens(text)
     includes = []
     for index, token in enumerate(items):
-        refused = refusal(items, index)
+        refused = refusal(items, index) or skip_refusal(items, index, text)
         if refused:
             raise GeoError(f"{path}, line {text.count(chr(10), 0, token.start) + 1}{includer}: {refused}; {WHY}")
         if token.text == "Include":
