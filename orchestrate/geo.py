@@ -23,7 +23,8 @@ otherwise than this check: a NUL byte, a comment or string never closed, a strin
 Return) what its skipping reads otherwise (`blocks`, `skip_refusal`).
 
 The mesher is also confined where the kernel offers Landlock (gmsh_mesher.py): no program may
-be started and no file written but its target, whatever this check missed.
+be started and no file written but its target, whatever this check missed. Where it does not,
+a user's .geo may hold no such block at all: the project's own meshes/ are exempt.
 """
 from __future__ import annotations
 
@@ -31,7 +32,10 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestrate.freefem import InputError, require_plain_path
+from orchestrate.freefem import REPO, InputError, require_plain_path
+from orchestrate.gmsh_mesher import landlock_abi
+
+PROJECT_MESHES = (REPO / "meshes").resolve()  # the project's own sources, committed and reviewed
 
 
 class GeoError(InputError):
@@ -258,7 +262,13 @@ def _check(path: Path, text: str, includer: str) -> list[tuple[Token, int]]:
             raise GeoError(f"{path}, line {text.count(chr(10), 0, token.start) + 1}{includer}: {refused}; {WHY}")
         if token.text == "Include":
             includes.append((items[index + 1], text.count("\n", 0, token.start) + 1))
-    for start, end in blocks(items, text):
+    spans = blocks(items, text)
+    if spans and not path.is_relative_to(PROJECT_MESHES) and landlock_abi() < 1:
+        raise GeoError(f"{path}, line {text.count(chr(10), 0, spans[0][0]) + 1}{includer}: an If, For, Macro or "
+                       "Function block, on a kernel without Landlock: gmsh skips such blocks reading characters "
+                       "otherwise than this check can, and without Landlock nothing else stops what it might miss "
+                       "(write the block out, or run where the kernel has Landlock, Linux 5.13 and later); " + WHY)
+    for start, end in spans:
         refused = skipped_refusal(text, start, end)
         if refused:
             raise GeoError(f"{path}, line {text.count(chr(10), 0, refused[0]) + 1}{includer}: {refused[1]}; {WHY}")

@@ -350,3 +350,19 @@ def test_ordinary_loops_and_tests_pass_and_a_slash_right_after_a_name_s_first_le
     source.write_text(RECTANGLE + "R = 2;\nIf (n > 1)\n  r = R/2;\nEndIf\n")
     with pytest.raises(GeoError, match=r"'R/' in a block gmsh may skip.*e\.g\. 0\.5\*R for R/2"):
         read_sources(source)
+
+
+def test_without_landlock_a_user_s_geo_may_hold_no_block_gmsh_could_skip(tmp_path, monkeypatch):
+    """There the check alone stands between a scene and gmsh: a block (where gmsh's skipping reads
+    otherwise) in a user's file is refused outright; the project's own files still pass."""
+    import orchestrate.geo as geo
+
+    monkeypatch.setattr(geo, "landlock_abi", lambda: 0)
+    plain = "DefineConstant[ n = 4 ];\nPoint(1) = {0, 0, 0, 1/n}; Point(2) = {1, 0, 0, 1/n};\nLine(1) = {1, 2};\n"
+    source = tmp_path / "block.geo"
+    source.write_text(plain + "For i In {1:3}\n  Point(10 + i) = {0.25*i, 0.5, 0, 0.1};\nEndFor\n")
+    with pytest.raises(GeoError, match=r"line 4: an If, For, Macro or Function block, on a kernel without Landlock"):
+        read_sources(source)
+    source.write_text(plain)
+    read_sources(source)
+    read_sources(REPO / "meshes" / "paper_body1_graded.geo")  # If blocks, in meshes/
