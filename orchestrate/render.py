@@ -244,32 +244,43 @@ def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str
     return np.linalg.norm(points - points[0], axis=1), f"position along Γ_C ({length_unit})"
 
 
+def glued(result: Result) -> bool:
+    """Whether the run has glue: bonds (β⁰ > 0 somewhere, or rebonding) that exert forces
+    (γ_ν or p_τ > 0). Without, β is 0 or does nothing, and its panels would show noise."""
+    p = result.params
+    bonds = p.get("beta0") != 0 or p.get("gammaR", 0) > 0
+    return bool(bonds and (p.get("gammaNu", 0) > 0 or p.get("pTau", 0) > 0))
+
+
 def plot_contact_line(result: Result, target: Path, time: float | None = None, dpi: int = 120) -> Path:
-    """β, the gap and the contact pressure along Γ_C at an output time (default: the last, else the
-    nearest written); with an initial gap g0 the gap is shown as g_h − π1 g0, so that 0 is closed
-    there too, and a gap within contactTol of 0 as 0."""
+    """β (when there is glue), the gap and the contact pressure along Γ_C at an output time
+    (default: the last, else the nearest written); with an initial gap g0 the gap is shown as
+    g_h − π1 g0, so that 0 is closed there too, and a gap within contactTol of 0 as 0."""
     times = [t for t, files in result.outputs if "contact" in files]
     chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
     line = result.fields("contact", chosen)
     units = units_of(result)
     s, position_label = line_position(line.points, units["length"])
-    beta = line.cell_data["beta"][0]
-    figure, axes = pyplot().subplots(3, 1, figsize=(7, 7.5), sharex=True)
-    axes[0].stairs(beta, s, baseline=None, color="tab:green")
-    steady_axis(axes[0], beta)
-    axes[0].set_ylabel("bonding β")
+    glue = glued(result)
+    figure, axes = pyplot().subplots(2 + glue, 1, figsize=(7, 5.2 + 2.3 * glue), sharex=True)
+    if glue:
+        beta = line.cell_data["beta"][0]
+        axes[0].stairs(beta, s, baseline=None, color="tab:green")
+        steady_axis(axes[0], beta)
+        axes[0].set_ylabel("bonding β")
+    axes = axes[glue:]
     initial = line.point_data.get("initialGap")
     opening = line.point_data["gap"] - (initial if initial is not None else 0)
     # closed to within the solver's tolerance is closed: its 1e-17 round-off would fill the panel
     opening = np.where(np.abs(opening) <= result.params.get("contactTol", 0.0), 0.0, opening)
-    axes[1].plot(s, opening, "o-", ms=3)
-    steady_axis(axes[1], opening)
-    axes[1].axhline(0, color="grey", lw=0.8)
-    axes[1].set_ylabel(f"{'g_h − π1 g0' if initial is not None else 'gap g_h'} ({units['length']})\n(< 0: open)")
-    axes[2].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
-    steady_axis(axes[2], line.point_data["pressure"])
-    axes[2].set_ylabel(f"contact pressure ({units['stress']})")
-    axes[2].set_xlabel(position_label)
+    axes[0].plot(s, opening, "o-", ms=3)
+    steady_axis(axes[0], opening)
+    axes[0].axhline(0, color="grey", lw=0.8)
+    axes[0].set_ylabel(f"{'g_h − π1 g0' if initial is not None else 'gap g_h'} ({units['length']})\n(< 0: open)")
+    axes[1].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
+    steady_axis(axes[1], line.point_data["pressure"])
+    axes[1].set_ylabel(f"contact pressure ({units['stress']})")
+    axes[1].set_xlabel(position_label)
     figure.suptitle(f"Contact line at t = {chosen:g} s")
     save(figure, target, dpi=dpi)
     return target
@@ -329,8 +340,8 @@ def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path
 
 def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int | None = None,
                *, announce=None, **fields_options) -> list[Path]:
-    """Every image the run's files allow: fields (body files), contact line, β over x and t,
-    history, in `image_format` (png, pdf, svg) at `dpi` (default: each image's own);
+    """Every image the run's files allow: fields (body files), contact line, β over x and t (with
+    glue), history, in `image_format` (png, pdf, svg) at `dpi` (default: each image's own);
     announce(name) is told each image's file name before it is drawn (a run's progress);
     fields_options (time among them) go to render_fields. Returns the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -348,7 +359,7 @@ def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int
         drawn("fields", render_fields, **fields_options)
     if any("contact" in files for _, files in result.outputs):
         drawn("contact_line", plot_contact_line, fields_options.get("time"))
-    if sum("contact" in files for _, files in result.outputs) >= 3:
+    if sum("contact" in files for _, files in result.outputs) >= 3 and glued(result):
         drawn("beta_xt", plot_bonding_evolution)
     drawn("history", plot_history)
     return images

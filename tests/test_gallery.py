@@ -203,6 +203,7 @@ def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
         for image in ("fields.png", "contact_line.png", "history.png"):
             assert (tmp_path / name / image).stat().st_size > 10_000
     assert (tmp_path / "peel" / "beta_xt.png").exists() and (tmp_path / "precrack" / "beta_xt.png").exists()
+    assert not (tmp_path / "punch" / "beta_xt.png").exists()  # no glue (β⁰ = 0, no rebonding): no β to show
     for image in ("pressure.png", "vonmises.png"):  # Hertz against the analytic solution
         assert (tmp_path / "hertz" / image).stat().st_size > 10_000
 
