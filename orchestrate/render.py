@@ -362,6 +362,10 @@ def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int
     if sum("contact" in files for _, files in result.outputs) >= 3 and glued(result):
         drawn("beta_xt", plot_bonding_evolution)
     drawn("history", plot_history)
+    for name in ("fields", "contact_line", "beta_xt"):  # an older drawing the files no longer give
+        stale = folder / f"{name}.{image_format}"
+        if stale not in images:
+            stale.unlink(missing_ok=True)
     return images
 
 

@@ -130,3 +130,15 @@ def test_no_text_collides_and_every_panel_is_drawn_inside_the_image(coarse, tmp_
     for x0, y0, x1, y1 in layout["panels"]:
         panel = image[int(y0) + 2:int(y1) - 2, int(x0) + 2:int(x1) - 2].reshape(-1, 3)
         assert len(np.unique(panel, axis=0)) > 50, "a blank panel"
+
+
+def test_render_removes_an_image_its_files_no_longer_give(coarse, tmp_path):
+    """Two output times give no beta_xt.png (three are needed): one left by an earlier drawing
+    goes, so a folder never shows a figure of another run."""
+    from orchestrate.render import render_all
+
+    (tmp_path / "beta_xt.png").write_bytes(b"stale")
+    (tmp_path / "notes.png").write_bytes(b"the user's")
+    drawn = render_all(coarse, tmp_path)
+    assert {path.name for path in drawn} == {"fields.png", "contact_line.png", "history.png"}
+    assert not (tmp_path / "beta_xt.png").exists() and (tmp_path / "notes.png").exists()
