@@ -1,6 +1,7 @@
 """Shared helpers: run FreeFem++ scripts and the solver, mesh with the gmsh command line."""
 from __future__ import annotations
 
+import signal
 import subprocess
 from pathlib import Path
 
@@ -11,6 +12,13 @@ from orchestrate.results import Result
 
 TESTS = Path(__file__).resolve().parent
 SCENES = TESTS / "scenes"
+
+# A suite started in the background of a non-interactive shell (`make test &`, nohup) inherits
+# SIGINT ignored, and so would every process it starts: the tests that interrupt a run with
+# SIGINT would then wait on a run that never sees it. A handler here is reset to the default in
+# every child, as in a terminal.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def gmsh_mesh(geo: str | Path, target: Path, **numbers: float) -> Path:
