@@ -105,26 +105,38 @@ def edge_lengths(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def same_body(mesh_a: Path, mesh_b: Path) -> None:
-    """Raises unless the two meshes cover one body: their bounding boxes within the larger mesh
-    size of each other and their areas within 1 % (a curved side's polygon changes with h)."""
-    meshes = [triangulation(path) for path in (mesh_a, mesh_b)]
+    """Raises unless the two mesh files cover one body (`covers_one_body`)."""
+    covers_one_body(triangulation(mesh_a), triangulation(mesh_b), (mesh_a, mesh_b))
+
+
+def covers_one_body(first, second, names) -> None:
+    """Raises unless two meshes (points, triangles) cover one body: their bounding boxes within the
+    larger mesh size of each other and their areas within 1 % (a curved side's polygon changes
+    with h); `names` say which in the message."""
+    meshes = (first, second)
     size = max(edge_lengths(*mesh).max() for mesh in meshes)
     boxes = [np.concatenate([points.min(axis=0), points.max(axis=0)]) for points, _ in meshes]
     areas = [area(*mesh) for mesh in meshes]
     if np.abs(boxes[0] - boxes[1]).max() > size or not math.isclose(*areas, rel_tol=0.01):
-        raise RuntimeError(f"{mesh_a} and {mesh_b} are not meshes of the same body (areas {areas[0]:.6g} and "
+        raise RuntimeError(f"{names[0]} and {names[1]} are not meshes of the same body (areas {areas[0]:.6g} and "
                            f"{areas[1]:.6g}, bounding boxes {np.round(boxes[0], 6).tolist()} and "
                            f"{np.round(boxes[1], 6).tolist()}): compare runs of one scene, with its meshes refined "
                            "or its steps or data changed")
 
 
 def nested_in(coarse: Path, fine: Path) -> bool:
+    """Whether the fine mesh file's triangles each lie in one of the coarse file's (`nests`)."""
+    return nests(triangulation(coarse), triangulation(fine))
+
+
+def nests(coarse, fine) -> bool:
     """Every triangle of the fine mesh lies in one triangle of the coarse mesh (so a P1 field of the
-    coarse mesh is P1 on the fine one, and its interpolation there is exact)."""
+    coarse mesh is P1 on the fine one, and its interpolation there is exact); meshes as
+    (points, triangles)."""
     from matplotlib.tri import Triangulation
 
-    points, triangles = triangulation(coarse)
-    fine_points, fine_triangles = triangulation(fine)
+    points, triangles = coarse
+    fine_points, fine_triangles = fine
     corners = fine_points[fine_triangles]                      # (triangles, 3 corners, 2)
     found = Triangulation(*points.T, triangles).get_trifinder()(*corners.mean(axis=1).T)
     if (found < 0).any():
@@ -135,10 +147,6 @@ def nested_in(coarse: Path, fine: Path) -> bool:
     size = math.sqrt(area(points, triangles) / len(triangles))
     tolerance = 1e-9 * max(1.0, float(np.abs(points).max()) / size)
     return bool((local >= -tolerance).all() and (local.sum(axis=-1) <= 1 + tolerance).all())
-
-
-def mesh_nodes(result: Result) -> int:
-    return sum(len(triangulation(result.mesh_file(body))[0]) for body in (1, 2))
 
 
 def differing_parameters(a: Result, b: Result) -> dict[str, tuple]:
@@ -195,12 +203,15 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     """The distances of two complete runs (load_result) at every time both saved their state."""
     a, b = (run if isinstance(run, Result) else load_result(run) for run in (run_a, run_b))
     pairs = common_states(a, b)
-    for body in (1, 2):
-        same_body(a.mesh_file(body), b.mesh_file(body))
-    finer = (mesh_nodes(a), a.params["N"]) > (mesh_nodes(b), b.params["N"])
+    files = {run: [run.mesh_file(body) for body in (1, 2)] for run in (a, b)}
+    meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
+    for body in (0, 1):
+        covers_one_body(meshes[a][body], meshes[b][body], (files[a][body], files[b][body]))
+    nodes = {run: sum(len(points) for points, _ in meshes[run]) for run in (a, b)}
+    finer = (nodes[a], a.params["N"]) > (nodes[b], b.params["N"])
     reference = "a" if finer else "b"
     run, ref = (b, a) if finer else (a, b)
-    nested = all(nested_in(run.mesh_file(i), ref.mesh_file(i)) for i in (1, 2))
+    nested = all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
     ordered = [(second, first) for first, second in pairs] if reference == "a" else pairs
     rows = distances(run, ref, ordered)
     return Comparison(a, b, reference, nested, rows, differing_parameters(a, b))

@@ -546,8 +546,8 @@ def differences(summary: dict, expected: dict) -> list[str]:
         return {**{name: value for name, value in data["final"].items() if name not in MEASURED},
                 "contactItersPerStep": data.get("contactItersPerStep")}
 
-    found, wanted = figures(summary), figures(expected)
-    return [f"{name}: {found.get(name)} here, {value} expected" for name, value in wanted.items()
+    found = figures(summary)
+    return [f"{name}: {found.get(name)} here, {value} expected" for name, value in figures(expected).items()
             if found.get(name) is None or value is None
             or abs(found[name] - value) > REPRODUCED["rtol"] * abs(value) + REPRODUCED["atol"]]
 

@@ -190,8 +190,12 @@ def glue_rows(scheme: str, p_tau: float, folder: Path, progress: bool) -> list[d
              **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau, "time.scheme": scheme}, folder, GLUE, progress)}]
 
 
-def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000.0, 3162.0, 10000.0),
-              glue=(100.0, 1000.0, 10000.0), progress: bool | str = "auto") -> list[dict]:
+YOUNG = (100.0, 316.0, 1000.0, 3162.0, 10000.0)  # the elastic and implicit cases: E over two decades of E/η
+GLUE_STIFFNESSES = (100.0, 1000.0, 10000.0)      # the glue-bound cases: p_τ
+
+
+def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_STIFFNESSES,
+              progress: bool | str = "auto") -> list[dict]:
     """Predicted and observed bounds of the explicit terms, on `scene_path` with coarse meshes:
     the paper's scheme's elastic k* for several E/η, with damage and with λ_u = 0; the implicit
     schemes far above it with strong damage; the damage source's bound per scheme (SOURCE_ALONE);
@@ -222,9 +226,8 @@ def stability(scene_path: str | Path, out: str | Path, young=(100.0, 316.0, 1000
             rows += rows_of(Path(scratch) / "run", shown)
             bar.update(1)
     write_csv(out / "stability.csv", rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
-    sizes = "".join(f" --{flag} {','.join(f'{value:g}' for value in values)!r}"
-                    for flag, values, default in (("young", young, stability.__defaults__[0]),
-                                                  ("p-tau", glue, stability.__defaults__[1])) if tuple(values) != default)
+    sizes = "".join(f" --{flag} {listed(values)!r}" for flag, values, default in
+                    (("young", young, YOUNG), ("p-tau", glue, GLUE_STIFFNESSES)) if tuple(values) != default)
     (out / "README.md").write_text(stability_report(rows, f"python -m orchestrate study stability "
                                                           f"{Path(scene_path).as_posix()}{sizes}"))
     plot(out / "stability.png", rows)
@@ -283,15 +286,18 @@ def positive_values(text: str) -> tuple[float, ...]:
     return values
 
 
+def listed(values) -> str:
+    return ",".join(f"{value:g}" for value in values)
+
+
 def add_arguments(parser) -> None:
-    defaults = stability.__defaults__
     parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
                                                                               "(default: scenes/paper.toml)")
     parser.add_argument("--out", default="results/stability", help="where the table and report go")
-    parser.add_argument("--young", type=positive_values, default=",".join(f"{v:g}" for v in defaults[0]), metavar="E1,E2,...",
+    parser.add_argument("--young", type=positive_values, default=listed(YOUNG), metavar="E1,E2,...",
                         help="Young's moduli of the cases of the elastic bound (each with and without damage) "
                              "and of the implicit schemes ('' leaves them out)")
-    parser.add_argument("--p-tau", type=positive_values, default=",".join(f"{v:g}" for v in defaults[1]), metavar="P1,P2,...",
+    parser.add_argument("--p-tau", type=positive_values, default=listed(GLUE_STIFFNESSES), metavar="P1,P2,...",
                         help="tangential glue stiffnesses p_τ of the glue-bound cases, per scheme ('' leaves them out)")
 
 
