@@ -1,9 +1,10 @@
 """python -m orchestrate bench: how long for a given error, on the paper's scene, on this machine.
 
 Variants: every time scheme (euler, the paper's; semi-implicit; bdf2) on each mesh family
-(uniform: the paper's structured meshes, body 1 with 6·2^ℓ elements per side; graded:
-scenes/paper_graded.toml, n = 6·2^ℓ, graded toward the singular points), the active-set contact
-solver throughout (Bermúdez–Moreno against it: tests/test_fast_paths.py).
+(uniform: the paper's structured meshes, body 1 with n1 = 6·2^ℓ elements per side, body 2 with
+4/3 as many; graded: scenes/paper_graded.toml, graded toward the singular points, n1 = 6·2^ℓ and
+body 2 with 11/24 as many), the active-set contact solver throughout (Bermúdez–Moreno against it:
+tests/test_fast_paths.py).
 
 Steps per level, balanced (docs/model-choices.md, "The benchmark's steps"): each scheme's time
 error model comes from the pilots of time.N = "auto" (orchestrate/steps.py) on uniform level 0;
@@ -23,9 +24,13 @@ split into start-up, meshing (warm cache), set-up, contact columns (made in the 
 first become active, run.json contactColumnSeconds), the rest of the loop and output, the
 overhead ratio (time per step, columns aside, over the back-substitutions a step cannot avoid,
 measured in the same process), peak memory
-after set-up and at the end (run.json), and ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V. Also: the sparse
-solvers timed on each matrix of the finest uniform level. Writes bench.csv, README.md and
-workprecision.png.
+after set-up and at the end (run.json), and ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V.
+
+"How long for a given error" is then answered by a run, not only read off a curve: for each target
+error two levels of a variant bracket, the coarsest n1 between them that reaches it is searched
+(`search_rows`), and the report gives each variant's fastest run at or below each target. Also:
+the sparse solvers timed on each matrix of the finest uniform level. Writes bench.csv, README.md
+and workprecision.png.
 """
 from __future__ import annotations
 
@@ -54,16 +59,29 @@ REPEATS, REPEAT_BELOW = 3, 20.0  # this machine's timings drift by ±20 %: short
 FIRST_TARGET = 1e-4  # bdf2's time target at level 0, below every space error reported
 REFERENCE_TARGET = 1e-6  # the time error of the reference and of the check
 MOST_DOUBLINGS = 6  # of N, for a level whose N an explicit bound refuses
-TARGETS = (1e-2, 2e-3)  # the errors the report reads every curve at
+TARGETS = (1e-2, 2e-3)  # the errors the report reads every curve at, and searches a mesh for
+SEARCH_RUNS = 5  # most runs of the search for the coarsest mesh that reaches a target
+N1_STEP = {"uniform": 2, "graded": 1}  # uniform body 1 has a node at the load jump x = 3: n1 even
 
 
-def mesh_level(family: str, l: int) -> dict:
-    """Level l of a family: n1 = 6·2^l, n2 = 8·2^l; uniform structured given explicitly (every
-    level meshed, none read from the committed default)."""
-    overrides = {"body1.mesh.n": 6 * 2 ** l, "body2.mesh.n": 8 * 2 ** l}
+def mesh_size(family: str, n1: int) -> dict:
+    """Body 1 with n1 elements per side, body 2 in the ratio of the family's scene (uniform: the
+    paper's 32/24; graded: 11/24, where body 2 holds little of the error); uniform structured given
+    explicitly (every mesh made, none read from the committed default)."""
+    scene = Scene.load(FAMILIES[family])
+    overrides = {"body1.mesh.n": n1, "body2.mesh.n": max(1, round(n1 * scene.body2.mesh.n / scene.body1.mesh.n))}
     if family == "uniform":
         overrides.update({"body1.mesh.structured": True, "body2.mesh.structured": True})
     return overrides
+
+
+def level_n1(l: int) -> int:
+    """Body 1's elements per side at level l (6/6, 6/12, ... of the paper's 6 × 6 body)."""
+    return 6 * 2 ** l
+
+
+def mesh_level(family: str, l: int) -> dict:
+    return mesh_size(family, level_n1(l))
 
 
 def variant_name(scheme: str, family: str) -> str:
@@ -150,6 +168,56 @@ def references(levels: int, models: dict, scratch: Path) -> list[dict]:
     return rows
 
 
+def measured_run(family: str, scheme: str, n1: int, level, target: float, model: dict, reference: Path,
+                 folder: Path, scratch: Path) -> dict:
+    """A bench row: the family's meshes at n1, the N whose estimated time error is `target`."""
+    steps, estimated = steps_for(model, target)
+    row = {"variant": variant_name(scheme, family), "scheme": scheme, "family": family, "level": level, "n1": n1,
+           "folder": folder, "timeTarget": target,
+           **stable_run(FAMILIES[family], {**mesh_size(family, n1), "time.scheme": scheme, "time.N": steps},
+                        folder, scratch / "meshes")}
+    row["estimatedTimeError"] = estimated * (steps / row["N"]) ** model["orderUsed"]  # N doubled?
+    row["errorToReference"] = final_distance(folder, reference)
+    return row
+
+
+def predicted_n1(coarse: dict, fine: dict, error: float, step: int) -> int:
+    """The n1 at which the line through two runs in log(error)–log(n1) reaches `error`, rounded
+    up to a multiple of step."""
+    slope = np.log(fine["errorToReference"] / coarse["errorToReference"]) / np.log(fine["n1"] / coarse["n1"])
+    n1 = coarse["n1"] * (error / coarse["errorToReference"]) ** (1 / slope)
+    return int(step * np.ceil(n1 / step - 1e-9))
+
+
+def search_rows(family: str, levels: list[dict], targets, fraction: float, models: dict, reference: Path,
+                scratch: Path) -> list[dict]:
+    """For every scheme and every target error its levels bracket, the coarsest mesh between them
+    that reaches it: secant steps in log(error)–log(n1) between the finest run above the target
+    and the coarsest at or below it, until the two are one step of n1 apart (at most SEARCH_RUNS
+    runs), N for a time error of fraction·target."""
+    rows = []
+    for scheme in SCHEMES:
+        runs = [row for row in levels if row["scheme"] == scheme]
+        for target in targets:
+            for _ in range(SEARCH_RUNS):
+                above = [row for row in runs if row["errorToReference"] > target]
+                below = [row for row in runs if row["errorToReference"] <= target]
+                if not above or not below:
+                    break
+                coarse, fine = max(above, key=lambda row: row["n1"]), min(below, key=lambda row: row["n1"])
+                step = N1_STEP[family]
+                n1 = max(predicted_n1(coarse, fine, target, step), coarse["n1"] + step)
+                if n1 >= fine["n1"]:
+                    n1 = fine["n1"] - step  # predicted to be the coarsest: the mesh below must show it
+                if n1 <= coarse["n1"]:
+                    break
+                folder = scratch / f"{scheme}-{family}" / f"search-{target:g}-n1-{n1}"
+                runs.append(measured_run(family, scheme, n1, f"search {100 * target:g} %", fraction * target,
+                                         models[scheme], reference, folder, scratch))
+                rows.append(runs[-1])
+    return rows
+
+
 def family_rows(family: str, levels: int, fraction: float, models: dict, reference: Path, scratch: Path) -> list[dict]:
     """Every scheme at every level of a family, N balanced against the level's space error."""
     rows, space = [], []
@@ -158,23 +226,19 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
         for scheme in ("bdf2", *(s for s in SCHEMES if s != "bdf2")):
             if scheme != "bdf2":
                 target = fraction * space[-1]
-            steps, estimated = steps_for(models[scheme], target)
-            folder = scratch / f"{scheme}-{family}" / f"level{l}"
-            row = {"variant": variant_name(scheme, family), "scheme": scheme, "family": family, "level": l,
-                   "folder": folder, "timeTarget": target,
-                   **stable_run(FAMILIES[family], {**mesh_level(family, l), "time.scheme": scheme, "time.N": steps},
-                                folder, scratch / "meshes")}
-            row["estimatedTimeError"] = estimated * (steps / row["N"]) ** models[scheme]["orderUsed"]  # N doubled?
-            row["errorToReference"] = final_distance(folder, reference)
+            row = measured_run(family, scheme, level_n1(l), l, target, models[scheme], reference,
+                               scratch / f"{scheme}-{family}" / f"level{l}", scratch)
             if scheme == "bdf2":
                 space.append(row["errorToReference"])
             rows.append(row)
     return rows
 
 
-def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None) -> list[dict]:
+def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None,
+          targets=TARGETS) -> list[dict]:
     """`levels` graded levels (the reference two finer) and `uniform_levels` uniform ones (default
-    as many: uniform meshes need one more level for the same error)."""
+    as many: uniform meshes need one more level for the same error); for each error of `targets`
+    the levels bracket, the search for the coarsest mesh that reaches it."""
     counts = {"uniform": uniform_levels or levels, "graded": levels}
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -184,20 +248,29 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_leve
         reference, check = references(levels, models, scratch)
         rows = [reference, check]
         for family in FAMILIES:
-            rows += family_rows(family, counts[family], fraction, models, reference["folder"], scratch)
+            levels_run = family_rows(family, counts[family], fraction, models, reference["folder"], scratch)
+            rows += levels_run + search_rows(family, levels_run, targets, fraction, models, reference["folder"],
+                                             scratch)
         check["errorToReference"] = final_distance(check["folder"], reference["folder"])
         for row in rows:
             if row["variant"] not in (REFERENCE, CHECK):
                 row["errorToCheck"] = final_distance(row["folder"], check["folder"])
-        finest = next(row["folder"] for row in reversed(rows) if row["variant"] == variant_name("euler", "uniform"))
+        finest = finest_level(rows, variant_name("euler", "uniform"))["folder"]
         (scratch / "solvers").mkdir()
         for body in (1, 2):
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
         solvers = solver_table(scratch / "solvers", load_result(finest).params["N"])
     rows = rows[2:] + rows[:2]
-    write(out, rows, solvers, models, f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g}",
-          fraction)
+    flags = (f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g} "
+             f"--targets {','.join(f'{100 * target:g}' for target in targets)}")
+    write(out, rows, solvers, models, flags, fraction, targets)
     return rows
+
+
+def finest_level(rows: list[dict], name: str) -> dict:
+    """A variant's row at its finest level (search runs aside)."""
+    return max((row for row in rows if row["variant"] == name and isinstance(row["level"], int)),
+               key=lambda row: row["level"])
 
 
 def curve(rows: list[dict], name: str, key: str = "errorToReference") -> list[tuple[float, float]]:
@@ -215,40 +288,54 @@ def wall_at(points: list[tuple[float, float]], error: float) -> float | None:
     return None
 
 
-def at_targets(rows: list[dict], key: str = "errorToReference") -> dict[str, dict[float, float | None]]:
-    """Every variant's wall time at each of TARGETS (None where its curve does not reach it)."""
-    names = dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK))
-    return {name: {target: wall_at(curve(rows, name, key), target) for target in TARGETS} for name in names}
+def at_targets(rows: list[dict], targets, key: str = "errorToReference") -> dict[str, dict[float, float | None]]:
+    """Every variant's wall time at each target, its curve interpolated (None where it does not
+    reach it)."""
+    return {name: {target: wall_at(curve(rows, name, key), target) for target in targets} for name in variants(rows)}
 
 
-COLUMNS = ["variant", "scheme", "family", "level", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
+def cheapest(rows: list[dict], targets, key: str = "errorToReference") -> dict[str, dict[float, dict | None]]:
+    """Every variant's fastest run whose error is at most each target (None where none is)."""
+    return {name: {target: min((row for row in rows if row["variant"] == name and row[key] <= target),
+                               key=lambda row: row["wall"], default=None) for target in targets}
+            for name in variants(rows)}
+
+
+def variants(rows: list[dict]) -> list[str]:
+    return list(dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK)))
+
+
+COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
            "startup", "meshing", "setup", "columns", "loop", "output", "overheadRatio", "setupMemoryMB", "peakMemoryMB",
            "contactIters", "normV", "errorToReference", "errorToCheck"]
 
 
-def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags: str, fraction: float) -> None:
+def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags: str, fraction: float,
+          targets) -> None:
     write_csv(out / "bench.csv", rows, COLUMNS)
-    plot(out / "workprecision.png", rows)
+    plot(out / "workprecision.png", rows, targets)
     command = f"python -m orchestrate bench {flags}"
-    (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, at_targets(rows),
-                                                at_targets(rows, "errorToCheck")))
+    (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, cheapest(rows, targets),
+                                                at_targets(rows, targets), at_targets(rows, targets, "errorToCheck")))
 
 
-def plot(target: Path, rows: list[dict]) -> None:
-    """Wall time against error, one curve per variant; beside it, the time split of each
-    variant's finest level."""
+def plot(target: Path, rows: list[dict], targets) -> None:
+    """Wall time against error, one curve per variant (levels and search runs), the target errors
+    dotted; beside it, the time split of each variant's finest level."""
     figure, (left, right) = pyplot().subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [3, 2]})
-    names = list(dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK)))
+    names = variants(rows)
     colours = {scheme: f"C{i}" for i, scheme in enumerate(SCHEMES)}
     for name in names:
         scheme, family = name.split(", ")
         errors, walls = zip(*curve(rows, name))
         left.loglog(np.array(errors) * 100, walls, ("o-" if family == "uniform" else "s--"), color=colours[scheme],
                     label=name)
+    for error in targets:
+        left.axvline(100 * error, color="0.6", linestyle=":", linewidth=1)
     left.invert_xaxis()
     log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)")
     parts = ("startup", "meshing", "setup", "columns", "loop", "output")
-    finest = [max((row for row in rows if row["variant"] == name), key=lambda row: row["level"]) for name in names]
+    finest = [finest_level(rows, name) for name in names]
     bottom = np.zeros(len(finest))
     for part in parts:
         values = np.array([row[part] for row in finest]).clip(min=0)
@@ -279,6 +366,21 @@ def unit_fraction(text: str) -> float:
     return value
 
 
+def percentages(text: str) -> tuple[float, ...]:
+    import argparse
+
+    values = []
+    for piece in text.split(","):
+        try:
+            value = float(piece)
+        except ValueError:
+            value = float("nan")
+        if not 0 < value < 100:
+            raise argparse.ArgumentTypeError(f"{piece.strip()!r}: each target error is a percentage in (0, 100)")
+        values.append(value / 100)
+    return tuple(values)
+
+
 def add_arguments(parser) -> None:
     from orchestrate.cli import at_least_two
 
@@ -290,10 +392,14 @@ def add_arguments(parser) -> None:
     parser.add_argument("--time-fraction", type=unit_fraction, default=0.25,
                         help="the time error each level's N aims at, as a fraction of the level's space error "
                              "(default 0.25)")
+    parser.add_argument("--targets", type=percentages, default=TARGETS,
+                        help="errors in %% (comma-separated) to find the fastest run for: between the levels that "
+                             "bracket each, the coarsest mesh that reaches it is searched (default 1,0.2)")
     parser.add_argument("--out", default="results/bench", help="where the tables and plots go")
 
 
 def command(options) -> int:
-    bench(options.out, levels=options.levels, fraction=options.time_fraction, uniform_levels=options.uniform_levels)
+    bench(options.out, levels=options.levels, fraction=options.time_fraction, uniform_levels=options.uniform_levels,
+          targets=options.targets)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -232,7 +232,7 @@ def glue_section(glue: list[dict]) -> list[str]:
 # --- benchmark ------------------------------------------------------------------------------
 
 def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: str, fraction: float,
-                 at_reference: dict, at_check: dict) -> str:
+                 fastest: dict, at_reference: dict, at_check: dict) -> str:
     """The benchmark's README: how each level's N was chosen, the time split, memory and errors of
     every run, the references, every variant's time at the target errors, and the sparse solvers
     on the finest uniform level."""
@@ -287,15 +287,20 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
     for scheme, model in models.items():
         lines.append(f"| {scheme} | {model['firstPilot']} | {model['pilots'][-1]['observedOrder']:.2f} | "
                      f"{model['orderUsed']:.2f} | {number(model['finestPilotError'])} |")
-    lines += ["", "Wall time to reach an error (each curve interpolated in log–log; against the check in brackets; "
-              "– where a curve does not reach it):", "",
-              "| variant | " + " | ".join(f"{100 * t:g} %" for t in next(iter(at_reference.values()))) + " |",
-              "|---|" + "---|" * len(next(iter(at_reference.values())))]
-    for name, walls in at_reference.items():
-        cells = [f"{walls[t]:.2f} s" if walls[t] else "–" for t in walls]
-        cells = [f"{cell} ({at_check[name][t]:.2f} s)" if at_check[name][t] else f"{cell} (–)"
-                 for cell, t in zip(cells, walls)]
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "Wall time to reach an error: the fastest run whose error is at most that (its mesh, N, error "
+              "against the reference and the check), and the variant's curve interpolated in log–log (against the "
+              "check in brackets); – where no run reaches it. Between the two levels that bracket an error, the "
+              "coarsest mesh reaching it was searched (the *search* rows above).", "",
+              "| variant | error | fastest run reaching it | nodes (body 1, 2) | N | its error (vs check) | "
+              "interpolated |", "|---|---|---|---|---|---|---|"]
+    for name, runs in fastest.items():
+        for target, run in runs.items():
+            interpolated = "–" if at_reference[name][target] is None else f"{at_reference[name][target]:.2f} s"
+            interpolated += " (–)" if at_check[name][target] is None else f" ({at_check[name][target]:.2f} s)"
+            found = ["–", "", "", ""] if run is None else [
+                f"{run['wall']:.3f} s", f"{run['nodes1']}, {run['nodes2']}", run["N"],
+                f"{100 * run['errorToReference']:.3f} % ({100 * run['errorToCheck']:.3f} %)"]
+            lines.append(f"| {name} | {100 * target:g} % | " + " | ".join(str(c) for c in found) + f" | {interpolated} |")
     lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
               "the factorization):", "",
               "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]

@@ -6,13 +6,15 @@ import csv
 
 import pytest
 
-from orchestrate.bench import CHECK, REFERENCE, SCHEMES, bench, wall_at
+from orchestrate.bench import CHECK, N1_STEP, REFERENCE, SCHEMES, SEARCH_RUNS, bench, predicted_n1, wall_at
+
+TARGET = 0.08  # between the errors of levels 0 and 1 (h1 = 6/6, 6/12) of both families
 
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    return out, bench(out, levels=2, fraction=0.25)
+    return out, bench(out, levels=2, fraction=0.25, targets=(TARGET,))
 
 
 def test_bench_writes_its_table_report_and_plot(quick):
@@ -20,9 +22,11 @@ def test_bench_writes_its_table_report_and_plot(quick):
     with open(out / "bench.csv") as handle:
         rows = list(csv.DictReader(handle))
     variants = [f"{scheme}, {family}" for family in ("uniform", "graded") for scheme in SCHEMES]
-    assert sorted(row["variant"] for row in rows) == sorted([*variants * 2, REFERENCE, CHECK])
+    levels = [row for row in rows if not row["level"].startswith("search")]
+    assert sorted(row["variant"] for row in levels) == sorted([*variants * 2, REFERENCE, CHECK])
     report = (out / "README.md").read_text()
-    assert "python -m orchestrate bench --levels 2 --uniform-levels 2 --time-fraction 0.25" in report
+    assert "python -m orchestrate bench --levels 2 --uniform-levels 2 --time-fraction 0.25 --targets 8" in report
+    assert all(f"| {variant} | 8 % |" in report for variant in variants)
     assert "CHOLMOD" in report and "MUMPS_seq" in report and "Time error models" in report
     assert (out / "workprecision.png").stat().st_size > 20000
 
@@ -37,6 +41,35 @@ def test_measurements_are_consistent(quick):
         for scheme in SCHEMES:
             errors = [row["errorToReference"] for row in rows if row["variant"] == f"{scheme}, {family}"]
             assert errors[0] > errors[1] > 0
+
+
+def test_the_search_finds_the_coarsest_mesh_that_reaches_the_target(quick):
+    """Between levels 0 and 1, for each variant they bracket: the finest run above the target and
+    the coarsest at or below it are one n1 step apart (so no coarser mesh between them reaches it),
+    unless the search ran out of runs."""
+    _, rows = quick
+    bracketed = set()
+    for family in ("uniform", "graded"):
+        for scheme in SCHEMES:
+            runs = [row for row in rows if row["variant"] == f"{scheme}, {family}"]
+            levels = [row for row in runs if isinstance(row["level"], int)]
+            if not levels[0]["errorToReference"] > TARGET >= levels[1]["errorToReference"]:
+                continue
+            bracketed.add(family)
+            searched = [row for row in runs if not isinstance(row["level"], int)]
+            assert all(6 < row["n1"] < 12 and row["n1"] % N1_STEP[family] == 0 for row in searched)
+            coarse = max((row for row in runs if row["errorToReference"] > TARGET), key=lambda row: row["n1"])
+            fine = min((row for row in runs if row["errorToReference"] <= TARGET), key=lambda row: row["n1"])
+            assert fine["n1"] - coarse["n1"] == N1_STEP[family] or len(searched) == SEARCH_RUNS, (family, scheme)
+    assert bracketed == {"uniform", "graded"}
+
+
+def test_predicted_n1_follows_a_power_law():
+    # error = 3·n1^-0.8 is a straight line in log–log: the prediction is exact, then rounded up to the step
+    runs = [{"n1": n1, "errorToReference": 3 * n1 ** -0.8} for n1 in (6, 12)]
+    assert predicted_n1(*runs, 3 * 9 ** -0.8, 1) == 9
+    assert predicted_n1(*runs, 3 * 9 ** -0.8, 2) == 10
+    assert predicted_n1(*runs, 3 * 8.5 ** -0.8, 1) == 9
 
 
 def test_the_steps_balance_time_against_space_error(quick):

@@ -42,18 +42,21 @@ def _edges(mesh):
 
 
 def test_graded_mesh_follows_its_size_law(tmp_path):
-    """meshes/paper_body1_graded.geo: size h·(r/radius)^grade between hmin = h·(h/radius)^(grade/(1−grade))
-    and h. At grade ½ the elements at a singular point shrink as h² while the node count still
-    grows as n² (∫ r dr / size² is finite), the property that gives P1 its optimal rate there."""
+    """meshes/paper_body1_graded.geo: size h·(r/radius)^g between hmin = h·(h/radius)^(g/(1−g)) and h,
+    g = grade (0.3) toward the clamped corner (0,0), g = loadedCornerGrade (0.6) toward (0,6), radius
+    2. The elements at a singular point shrink faster than h (as h^(1/(1−g))) while the node count
+    still grows as n² (∫ r dr / size² is finite for g < 1), the property that gives P1 its optimal
+    rate there."""
     nodes = []
     for n in (24, 48):
         mesh = meshio.read(body_mesh(REPO / "meshes/paper_body1_graded.geo", {"n": n}, cache=tmp_path))
         h = 6 / n
-        hmin = h * (h / 3)
         pairs, lengths = _edges(mesh)
-        corner = np.flatnonzero(np.linalg.norm(mesh.points[:, :2], axis=1) < 1e-12)[0]  # the clamped corner (0,0)
-        at_corner = lengths[(pairs == corner).any(axis=1)]
-        assert 0.5 * hmin < at_corner.min() and at_corner.max() < 2.5 * hmin
+        for corner, grade in (((0, 0), 0.3), ((0, 6), 0.6)):
+            hmin = h * (h / 2) ** (grade / (1 - grade))
+            node = np.flatnonzero(np.linalg.norm(mesh.points[:, :2] - corner, axis=1) < 1e-12)[0]
+            at_corner = lengths[(pairs == node).any(axis=1)]
+            assert 0.5 * hmin < at_corner.min() and at_corner.max() < 2.5 * hmin, (n, corner)
         assert lengths.max() < 1.6 * h
         nodes.append(len(mesh.points))
     assert 3.5 < nodes[1] / nodes[0] < 4.5
