@@ -6,17 +6,21 @@
 // grading gets stronger with every level (hmin ∝ h² at grade 1/2), so these meshes are not
 // nested. A point with a stronger singularity takes a larger grade. The includer defines h,
 // radius, singular[] (point tags) and grades[] (one exponent per point).
-If (#grades[] != #singular[])
-  Error("graded_size.geo: %g grades for %g singular points", #grades[], #singular[]);
+If (#singular[] < 1 || #grades[] != #singular[])
+  Error("graded_size.geo: %g grades for %g singular points (one grade a point, at least one point)",
+        #grades[], #singular[]);
+  Abort;
 EndIf
 If (radius <= 0)
   Error("radius = %g: the grading radius must be positive", radius);
+  Abort;
 EndIf
 points = #singular[];
 For i In {0 : points - 1}
   g = grades[i];
   If (g <= 0 || g >= 1)
     Error("grade = %g: the grading exponent must lie in (0, 1)", g);
+    Abort;
   EndIf
   hmin = h * (h / radius)^(g / (1 - g));
   Field[i + 1] = Distance;

@@ -6,7 +6,7 @@ Variants: every time scheme (euler, the paper's; semi-implicit; bdf2) on each me
 body 2 with 11/24 as many), the active-set contact solver throughout (Bermúdez–Moreno against it:
 tests/test_fast_paths.py).
 
-Steps per level, balanced (docs/model-choices.md, "The benchmark's steps"): each scheme's time
+Steps per level, balanced (docs/model-choices.md, "Steps for a target time error"): each scheme's time
 error model comes from the pilots of time.N = "auto" (orchestrate/steps.py) on uniform level 0;
 at every level the space error s_ℓ of a family is bdf2's measured error there (bdf2 itself aims
 at fraction·s_{ℓ−1}/4, 1e-4 at level 0: the space error falls by less than 4 a level, so its time
@@ -66,8 +66,9 @@ N1_STEP = {"uniform": 2, "graded": 1}  # uniform body 1 has a node at the load j
 
 def mesh_size(family: str, n1: int) -> dict:
     """Body 1 with n1 elements per side, body 2 in the ratio of the family's scene (uniform: the
-    paper's 32/24; graded: 11/24, where body 2 holds little of the error); uniform structured given
-    explicitly (every mesh made, none read from the committed default)."""
+    paper's 32/24; graded: 11/24, where body 2 holds little of the error), rounded to the nearest
+    integer, ties to even; uniform structured given explicitly (every mesh made, none read from the
+    committed default)."""
     scene = Scene.load(FAMILIES[family])
     overrides = {"body1.mesh.n": n1, "body2.mesh.n": max(1, round(n1 * scene.body2.mesh.n / scene.body1.mesh.n))}
     if family == "uniform":
@@ -189,33 +190,67 @@ def predicted_n1(coarse: dict, fine: dict, error: float, step: int) -> int:
     return int(step * np.ceil(n1 / step - 1e-9))
 
 
+def search_label(target: float) -> str:
+    return f"search {100 * target:g} %"
+
+
+def by_n1(levels: list[dict], searched: list[dict]) -> list[dict]:
+    """A variant's runs, one per n1: a search run replaces the level run at its n1."""
+    return list(({row["n1"]: row for row in levels} | {row["n1"]: row for row in searched}).values())
+
+
+def bracket(runs: list[dict], target: float) -> tuple[dict | None, dict | None]:
+    """The coarsest run at or below the target and the finest coarser run above it (None where
+    there is none)."""
+    below = [row for row in runs if row["errorToReference"] <= target]
+    fine = min(below, key=lambda row: row["n1"], default=None)
+    above = [row for row in runs if row["errorToReference"] > target and fine and row["n1"] < fine["n1"]]
+    return max(above, key=lambda row: row["n1"], default=None), fine
+
+
+def search(family: str, scheme: str, levels: list[dict], target: float, fraction: float, model: dict,
+           reference: Path, scratch: Path) -> list[dict]:
+    """The coarsest mesh that reaches `target`, between two levels that bracket it: secant steps in
+    log(error)–log(n1), every run at the N for a time error of fraction·target, until a run at or
+    below the target (at those steps) is one step of n1 above a run above it, or SEARCH_RUNS runs."""
+    label, step, searched = search_label(target), N1_STEP[family], []
+    for _ in range(SEARCH_RUNS):
+        coarse, fine = bracket(by_n1(levels, searched), target)
+        if coarse is None:
+            break
+        n1 = max(predicted_n1(coarse, fine, target, step), coarse["n1"] + step)
+        if n1 >= fine["n1"]:
+            n1 = fine["n1"] - step  # predicted to be the coarsest: the mesh below must show it
+        if n1 <= coarse["n1"]:
+            if fine["level"] == label:
+                break
+            n1 = fine["n1"]  # a level run, at its level's steps: run it at the target's
+        folder = scratch / f"{scheme}-{family}" / f"search-{target:g}-n1-{n1}"
+        searched.append(measured_run(family, scheme, n1, label, fraction * target, model, reference, folder, scratch))
+    return searched
+
+
 def search_rows(family: str, levels: list[dict], targets, fraction: float, models: dict, reference: Path,
                 scratch: Path) -> list[dict]:
-    """For every scheme and every target error its levels bracket, the coarsest mesh between them
-    that reaches it: secant steps in log(error)–log(n1) between the finest run above the target
-    and the coarsest at or below it, until the two are one step of n1 apart (at most SEARCH_RUNS
-    runs), N for a time error of fraction·target."""
-    rows = []
-    for scheme in SCHEMES:
-        runs = [row for row in levels if row["scheme"] == scheme]
-        for target in targets:
-            for _ in range(SEARCH_RUNS):
-                above = [row for row in runs if row["errorToReference"] > target]
-                below = [row for row in runs if row["errorToReference"] <= target]
-                if not above or not below:
-                    break
-                coarse, fine = max(above, key=lambda row: row["n1"]), min(below, key=lambda row: row["n1"])
-                step = N1_STEP[family]
-                n1 = max(predicted_n1(coarse, fine, target, step), coarse["n1"] + step)
-                if n1 >= fine["n1"]:
-                    n1 = fine["n1"] - step  # predicted to be the coarsest: the mesh below must show it
-                if n1 <= coarse["n1"]:
-                    break
-                folder = scratch / f"{scheme}-{family}" / f"search-{target:g}-n1-{n1}"
-                runs.append(measured_run(family, scheme, n1, f"search {100 * target:g} %", fraction * target,
-                                         models[scheme], reference, folder, scratch))
-                rows.append(runs[-1])
-    return rows
+    """`search` for every scheme of a family and every target error."""
+    return [row for scheme in SCHEMES for target in targets
+            for row in search(family, scheme, [row for row in levels if row["scheme"] == scheme], target, fraction,
+                              models[scheme], reference, scratch)]
+
+
+def search_status(rows: list[dict], name: str, target: float) -> str:
+    """How the search for `target` ended for a variant, for the report."""
+    label, step = search_label(target), N1_STEP[name.split(", ")[1]]
+    levels = [row for row in rows if row["variant"] == name and isinstance(row["level"], int)]
+    searched = [row for row in rows if row["variant"] == name and row["level"] == label]
+    if not searched:
+        return "not searched: no two levels bracket it"
+    coarse, fine = bracket(by_n1(levels, searched), target)
+    if fine is None or coarse is None:
+        return f"open after {len(searched)} runs: none at the search's steps brackets it"
+    if fine["level"] == label and fine["n1"] - coarse["n1"] == step:
+        return f"n1 = {fine['n1']} reaches it, {coarse['n1']} does not"
+    return f"open after {len(searched)} runs: n1 = {coarse['n1']} above it, {fine['n1']} at or below"
 
 
 def family_rows(family: str, levels: int, fraction: float, models: dict, reference: Path, scratch: Path) -> list[dict]:
@@ -274,7 +309,8 @@ def finest_level(rows: list[dict], name: str) -> dict:
 
 
 def curve(rows: list[dict], name: str, key: str = "errorToReference") -> list[tuple[float, float]]:
-    """(error, wall) of a variant's measured levels, by increasing error (`key`: which reference)."""
+    """(error, wall) of a variant's runs, its levels and search runs, by increasing error (`key`:
+    which reference)."""
     return sorted((row[key], row["wall"]) for row in rows if row["variant"] == name)
 
 
@@ -315,8 +351,10 @@ def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags:
     write_csv(out / "bench.csv", rows, COLUMNS)
     plot(out / "workprecision.png", rows, targets)
     command = f"python -m orchestrate bench {flags}"
+    statuses = {name: {target: search_status(rows, name, target) for target in targets} for name in variants(rows)}
     (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, cheapest(rows, targets),
-                                                at_targets(rows, targets), at_targets(rows, targets, "errorToCheck")))
+                                                statuses, at_targets(rows, targets),
+                                                at_targets(rows, targets, "errorToCheck")))
 
 
 def plot(target: Path, rows: list[dict], targets) -> None:
@@ -377,6 +415,8 @@ def percentages(text: str) -> tuple[float, ...]:
             value = float("nan")
         if not 0 < value < 100:
             raise argparse.ArgumentTypeError(f"{piece.strip()!r}: each target error is a percentage in (0, 100)")
+        if value / 100 in values:
+            raise argparse.ArgumentTypeError(f"{piece.strip()!r} is listed twice")
         values.append(value / 100)
     return tuple(values)
 
@@ -392,9 +432,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--time-fraction", type=unit_fraction, default=0.25,
                         help="the time error each level's N aims at, as a fraction of the level's space error "
                              "(default 0.25)")
-    parser.add_argument("--targets", type=percentages, default=TARGETS,
-                        help="errors in %% (comma-separated) to find the fastest run for: between the levels that "
-                             "bracket each, the coarsest mesh that reaches it is searched (default 1,0.2)")
+    parser.add_argument("--targets", type=percentages, default=TARGETS, metavar="P1,P2,...",
+                        help="errors in %% to find the fastest run for: between the two levels that bracket each, "
+                             "the coarsest mesh that reaches it is searched; a target no two levels bracket is not "
+                             "(default 1,0.2)")
     parser.add_argument("--out", default="results/bench", help="where the tables and plots go")
 
 

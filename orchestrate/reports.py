@@ -232,7 +232,7 @@ def glue_section(glue: list[dict]) -> list[str]:
 # --- benchmark ------------------------------------------------------------------------------
 
 def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: str, fraction: float,
-                 fastest: dict, at_reference: dict, at_check: dict) -> str:
+                 fastest: dict, statuses: dict, at_reference: dict, at_check: dict) -> str:
     """The benchmark's README: how each level's N was chosen, the time split, memory and errors of
     every run, the references, every variant's time at the target errors, and the sparse solvers
     on the finest uniform level."""
@@ -288,11 +288,12 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
         lines.append(f"| {scheme} | {model['firstPilot']} | {model['pilots'][-1]['observedOrder']:.2f} | "
                      f"{model['orderUsed']:.2f} | {number(model['finestPilotError'])} |")
     lines += ["", "Wall time to reach an error: the fastest run whose error is at most that (its mesh, N, error "
-              "against the reference and the check), and the variant's curve interpolated in log–log (against the "
-              "check in brackets); – where no run reaches it. Between the two levels that bracket an error, the "
-              "coarsest mesh reaching it was searched (the *search* rows above).", "",
+              "against the reference and the check), and the variant's curve of levels and search runs interpolated "
+              "in log–log (against the check in brackets); – where no run reaches it. *search*: how the search "
+              "for the coarsest mesh that reaches the error ended, between the two levels that bracket it (the "
+              "*search* rows above, each at the N for a time error of the fraction times the target).", "",
               "| variant | error | fastest run reaching it | nodes (body 1, 2) | N | its error (vs check) | "
-              "interpolated |", "|---|---|---|---|---|---|---|"]
+              "interpolated | search |", "|---|---|---|---|---|---|---|---|"]
     for name, runs in fastest.items():
         for target, run in runs.items():
             interpolated = "–" if at_reference[name][target] is None else f"{at_reference[name][target]:.2f} s"
@@ -300,7 +301,8 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
             found = ["–", "", "", ""] if run is None else [
                 f"{run['wall']:.3f} s", f"{run['nodes1']}, {run['nodes2']}", run["N"],
                 f"{100 * run['errorToReference']:.3f} % ({100 * run['errorToCheck']:.3f} %)"]
-            lines.append(f"| {name} | {100 * target:g} % | " + " | ".join(str(c) for c in found) + f" | {interpolated} |")
+            cells = [name, f"{100 * target:g} %", *found, interpolated, statuses[name][target]]
+            lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
               "the factorization):", "",
               "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]

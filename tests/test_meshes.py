@@ -62,6 +62,18 @@ def test_graded_mesh_follows_its_size_law(tmp_path):
     assert 3.5 < nodes[1] / nodes[0] < 4.5
 
 
+def test_body_2_is_graded_toward_one_end_of_its_contact_side(tmp_path):
+    """meshes/paper_body2_graded.geo: toward (6,0) at grade 0.4, radius 6 (hmin = h·(h/6)^(2/3));
+    its other end (0,0) is farther than the radius from it, so its elements there are of size h."""
+    h = 6 / 24
+    mesh = meshio.read(body_mesh(REPO / "meshes/paper_body2_graded.geo", {"n": 24}, cache=tmp_path))
+    pairs, lengths = _edges(mesh)
+    for corner, size in (((6, 0), h * (h / 6) ** (2 / 3)), ((0, 0), h)):
+        node = np.flatnonzero(np.linalg.norm(mesh.points[:, :2] - corner, axis=1) < 1e-12)[0]
+        at_corner = lengths[(pairs == node).any(axis=1)]
+        assert 0.5 * size < at_corner.min() and at_corner.max() < 2.5 * size, corner
+
+
 def test_a_grading_exponent_outside_its_range_is_refused(tmp_path):
     with pytest.raises(MeshError, match=r"grade = 1\.5: the grading exponent must lie in \(0, 1\)"):
         body_mesh(REPO / "meshes/paper_body2_graded.geo", {"n": 8, "grade": 1.5}, cache=tmp_path)
