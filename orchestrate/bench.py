@@ -40,6 +40,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from matplotlib.ticker import FuncFormatter
 
 from orchestrate.convergence import distances
 from orchestrate.freefem import REPO, SolverError, run_script
@@ -371,6 +372,7 @@ def plot(target: Path, rows: list[dict], targets) -> None:
     for error in targets:
         left.axvline(100 * error, color="0.6", linestyle=":", linewidth=1)
     left.invert_xaxis()
+    left.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 1, 10: not 10⁰, 10¹
     log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)")
     parts = ("startup", "meshing", "setup", "columns", "loop", "output")
     finest = [finest_level(rows, name) for name in names]
