@@ -394,13 +394,18 @@ def plot(target: Path, rows: list[dict], targets) -> None:
 NAME, HELP = "bench", "run time against error on this machine, every scheme on uniform and graded meshes (results/bench)"
 
 
+def number(text: str) -> float:
+    """The number a command-line value spells, NaN (outside every range) when it spells none."""
+    try:
+        return float(text)
+    except ValueError:
+        return float("nan")
+
+
 def unit_fraction(text: str) -> float:
     import argparse
 
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
+    value = number(text)
     if not 0 < value <= 1:
         raise argparse.ArgumentTypeError(f"{text!r}: a number in (0, 1]")
     return value
@@ -411,10 +416,7 @@ def percentages(text: str) -> tuple[float, ...]:
 
     values = []
     for piece in text.split(","):
-        try:
-            value = float(piece)
-        except ValueError:
-            value = float("nan")
+        value = number(piece)
         if not 0 < value < 100:
             raise argparse.ArgumentTypeError(f"{piece.strip()!r}: each target error is a percentage in (0, 100)")
         if value / 100 in values:
