@@ -371,8 +371,12 @@ def plot(target: Path, rows: list[dict], targets) -> None:
                     label=name)
     for error in targets:
         left.axvline(100 * error, color="0.6", linestyle=":", linewidth=1)
+        left.annotate(f"target {100 * error:g} %", (100 * error, 0), xycoords=("data", "axes fraction"),
+                      xytext=(-3, 4), textcoords="offset points", rotation=90, ha="right", va="bottom", fontsize=8,
+                      color="0.4")
     left.invert_xaxis()
-    left.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 1, 10: not 10⁰, 10¹
+    for axis in (left.xaxis, left.yaxis):
+        axis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 1, 10: not 10⁰, 10¹
     log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)")
     parts = ("startup", "meshing", "setup", "columns", "loop", "output")
     finest = [finest_level(rows, name) for name in names]
