@@ -10,7 +10,9 @@ identically.
 
 gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
 .msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
-cache and again before it is used; a bad cache entry is rebuilt.
+cache and again before it is used (once per process while the file is unchanged); a bad cache entry
+is rebuilt. Where a triangle is below gmshload's area limit the driver gets the mesh in FreeFEM's
+own format, made once per cache entry and kept beside it.
 """
 from __future__ import annotations
 
@@ -64,9 +66,30 @@ class MeshInfo:
     smallest_area: float = math.inf
 
 
+_whole: dict[tuple, MeshInfo] = {}  # files read whole, by (device, inode, size, modification time)
+
+
 def read_msh(path: Path) -> MeshInfo:
     """Read a gmsh 2.2 ASCII file back whole: every section closed, as many node and element lines
-    as their headers say, finite coordinates. Raises MeshError naming the file and the fault."""
+    as their headers say, finite coordinates. Raises MeshError naming the file and the fault. A file
+    read whole before and unchanged since (the same file, size and modification time; a rename
+    keeps them) is not parsed again: each mesh is parsed once, not once to trust it and once to use it."""
+    try:
+        stat = path.stat()
+    except OSError as error:
+        raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
+    key = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    if key not in _whole:
+        _whole[key] = parse_msh(path)
+    return _whole[key]
+
+
+def forget_whole_files() -> None:
+    """Read every mesh file anew from now on, as a fresh process would (the benchmark times runs so)."""
+    _whole.clear()
+
+
+def parse_msh(path: Path) -> MeshInfo:
     def fault(what: str) -> MeshError:
         return MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {what} "
                          "(cut short by a full disk or a file-size limit? mesh it again)")
@@ -143,9 +166,50 @@ def write_freefem(source: Path, target: Path) -> None:
             edges.append(f"{corners} {label}")
     text = [f"{len(table)} {len(triangles)} {len(edges)}", *(f"{x!r} {y!r} 1" for x, y in table[:, 1:3].tolist()),
             *triangles, *edges]
-    partial = target.with_name(target.name + ".partial")
-    partial.write_text("\n".join(text) + "\n")
-    partial.replace(target)
+    partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial{target.suffix}")
+    try:
+        partial.write_text("\n".join(text) + "\n")
+        partial.replace(target)  # atomic: a concurrent run reads a whole file or none
+    finally:
+        partial.unlink(missing_ok=True)
+
+
+def hand_over(path: Path, info: MeshInfo, target: Path) -> None:
+    """The mesh `path` (read whole: info) as the driver is to read it, at `target`: gmsh's file, or
+    where a triangle is below gmshload's area limit the same mesh in FreeFEM's format — for a cached
+    mesh made once, beside it in the cache (a warm run copies it), for a committed one each time."""
+    if info.smallest_area >= GMSHLOAD_SMALLEST_AREA:
+        source = path
+    elif path.resolve().parent == (REPO / "meshes").resolve():
+        write_freefem(path, target)
+        return
+    else:
+        source = freefem_twin(path)
+    shutil.copyfile(source, target)
+    if target.stat().st_size != source.stat().st_size:
+        raise MeshError(f"{target} is not a whole copy of {source} (a full disk?)")
+
+
+def freefem_twin(path: Path) -> Path:
+    """The cached gmsh mesh `path` in FreeFEM's format, beside it, named by the digest of that
+    mesh and of this module (which converts it): never the twin of another file or of an older
+    conversion. Made when missing or not whole (its first line's counts against its lines)."""
+    digest = hashlib.sha256(path.read_bytes())
+    digest.update(Path(__file__).read_bytes())
+    twin = path.with_name(f"{path.stem}.{digest.hexdigest()[:16]}.mesh")
+    if not whole_freefem_mesh(twin):
+        write_freefem(path, twin)
+    return twin
+
+
+def whole_freefem_mesh(path: Path) -> bool:
+    """Whether a FreeFEM-format mesh file is there with as many lines as its first line announces."""
+    try:
+        data = path.read_bytes()
+        counts = [int(field) for field in data[: data.index(b"\n")].split()]
+    except (OSError, ValueError):
+        return False
+    return len(counts) == 3 and data.count(b"\n") == sum(counts) + 1
 
 
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
@@ -216,7 +280,7 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
 def remove_orphans(cache: Path) -> None:
     """Partial meshes and source copies of mesher processes that no longer run (killed while
     meshing)."""
-    for path in [*cache.glob("*.partial.msh"), *cache.glob("*.partial.geo")]:
+    for path in [*cache.glob("*.partial.msh"), *cache.glob("*.partial.mesh"), *cache.glob("*.partial.geo")]:
         try:
             pid = int(path.name.split(".")[-4])
             os.kill(pid, 0)

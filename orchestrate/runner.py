@@ -385,12 +385,9 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
         pool.shutdown(wait=True)
     infos = []
     for index, (body, path) in enumerate(zip(bodies, paths), 1):
-        target = folder / f"body{index}.msh"
-        shutil.copyfile(path, target)
-        info = meshing.read_msh(target)
+        info = meshing.read_msh(path)  # read whole when body_mesh took it: not parsed again
         require_labels(body, index, info)
-        if info.smallest_area < meshing.GMSHLOAD_SMALLEST_AREA:
-            meshing.write_freefem(path, target)
+        meshing.hand_over(path, info, folder / f"body{index}.msh")
         infos.append(info)
     constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
     pdas = scene.solver.contactSolver == "pdas"

@@ -158,3 +158,34 @@ def scene_number(path, dotted: str) -> float:
     from orchestrate.scene import Scene
 
     return scene_value(Scene.load(path).model_dump(mode="json"), dotted)
+
+
+def test_a_mesh_below_gmshloads_area_limit_goes_to_the_driver_in_freefems_format_made_once(tmp_path):
+    """Where a triangle is below gmshload's area limit the run folder gets the mesh in FreeFEM's
+    format: byte for byte what write_freefem makes of the gmsh file (whose equivalence to it is
+    tested above), made once per cache entry and copied by later runs; a twin cut short is made
+    again, and another gmsh file (an entry rebuilt) never gets an older file's twin."""
+    from orchestrate.mesh import GMSHLOAD_SMALLEST_AREA, hand_over, read_msh, write_freefem
+
+    source, numbers, cache = REPO / "meshes/paper_body1_graded.geo", {"n": 24, "loadedCornerGrade": 0.8}, tmp_path / "c"
+    path = body_mesh(source, numbers, cache=cache)
+    info = read_msh(path)
+    assert info.smallest_area < GMSHLOAD_SMALLEST_AREA
+    write_freefem(path, tmp_path / "direct.msh")
+    direct = (tmp_path / "direct.msh").read_bytes()
+    hand_over(path, info, tmp_path / "first.msh")
+    [twin] = cache.glob("*.mesh")
+    made = twin.stat().st_mtime_ns
+    hand_over(path, info, tmp_path / "second.msh")
+    assert twin.stat().st_mtime_ns == made
+    twin.write_bytes(twin.read_bytes()[:-100])
+    hand_over(path, info, tmp_path / "third.msh")
+    for run in ("first", "second", "third"):
+        assert (tmp_path / f"{run}.msh").read_bytes() == direct
+    lines = path.read_text().splitlines()  # the same mesh with its first node moved a little
+    first = lines.index("$Nodes") + 2
+    node = lines[first].split()
+    lines[first] = " ".join([node[0], repr(float(node[1]) + 1e-9), *node[2:]])
+    path.write_text("\n".join(lines) + "\n")
+    hand_over(path, read_msh(path), tmp_path / "moved.msh")
+    assert len(list(cache.glob("*.mesh"))) == 2 and (tmp_path / "moved.msh").read_bytes() != direct
