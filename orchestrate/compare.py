@@ -104,11 +104,6 @@ def edge_lengths(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.linalg.norm(points[triangles] - points[np.roll(triangles, 1, axis=1)], axis=-1)
 
 
-def same_body(mesh_a: Path, mesh_b: Path) -> None:
-    """Raises unless the two mesh files cover one body (`covers_one_body`)."""
-    covers_one_body(triangulation(mesh_a), triangulation(mesh_b), (mesh_a, mesh_b))
-
-
 def covers_one_body(first, second, names) -> None:
     """Raises unless two meshes (points, triangles) cover one body: their bounding boxes within the
     larger mesh size of each other and their areas within 1 % (a curved side's polygon changes
@@ -122,11 +117,6 @@ def covers_one_body(first, second, names) -> None:
                            f"{areas[1]:.6g}, bounding boxes {np.round(boxes[0], 6).tolist()} and "
                            f"{np.round(boxes[1], 6).tolist()}): compare runs of one scene, with its meshes refined "
                            "or its steps or data changed")
-
-
-def nested_in(coarse: Path, fine: Path) -> bool:
-    """Whether the fine mesh file's triangles each lie in one of the coarse file's (`nests`)."""
-    return nests(triangulation(coarse), triangulation(fine))
 
 
 def nests(coarse, fine) -> bool:

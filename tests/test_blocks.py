@@ -178,7 +178,7 @@ def test_compare_gives_the_distances_of_the_creep_recursions(blocks, tmp_path, n
 
 
 def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
-    from orchestrate.compare import common_states, nested_in, same_body
+    from orchestrate.compare import common_states, covers_one_body, nests, triangulation
     from orchestrate.results import Result
 
     square = gmsh_mesh("meshes/rectangle.geo", tmp_path / "square.msh", x1=2, y0=0, y1=1, n=4)
@@ -186,9 +186,9 @@ def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
     shifted = gmsh_mesh("meshes/rectangle.geo", tmp_path / "shifted.msh", x0=1, x1=3, y0=0, y1=1, n=4)
     for other in (taller, shifted):  # another area; the same area elsewhere
         with pytest.raises(RuntimeError, match="not meshes of the same body"):
-            same_body(square, other)
-    same_body(square, square)
-    assert nested_in(square, square)
+            covers_one_body(triangulation(square), triangulation(other), (square, other))
+    covers_one_body(triangulation(square), triangulation(square), (square, square))
+    assert nests(triangulation(square), triangulation(square))
     (tmp_path / "empty").mkdir()
     with pytest.raises(RuntimeError, match='saved no state.*output.fields including "state"'):
         common_states(blocks, Result(tmp_path / "empty"))
