@@ -151,7 +151,12 @@ def write_freefem(source: Path, target: Path) -> None:
     the triangles, then the boundary edges, by 1-based vertex numbers, with their physical tags),
     the mesh gmshload would make: its vertices in their order with label 1 and the doubles an
     ASCII reader parses (written back exactly by repr), the triangles and edges in their order."""
-    lines = source.read_bytes().split(b"\n")
+    write_atomically(target, freefem_text(source.read_bytes()))
+
+
+def freefem_text(data: bytes) -> str:
+    """What write_freefem writes, from the bytes of a gmsh 2.2 ASCII file."""
+    lines = data.split(b"\n")
     position = {line.strip(): index for index, line in enumerate(lines) if line.startswith(b"$")}
     table = np.array(b" ".join(lines[position[b"$Nodes"] + 2: position[b"$EndNodes"]]).split(), dtype=float)
     table = table.reshape(-1, 4)
@@ -166,9 +171,13 @@ def write_freefem(source: Path, target: Path) -> None:
             edges.append(f"{corners} {label}")
     text = [f"{len(table)} {len(triangles)} {len(edges)}", *(f"{x!r} {y!r} 1" for x, y in table[:, 1:3].tolist()),
             *triangles, *edges]
+    return "\n".join(text) + "\n"
+
+
+def write_atomically(target: Path, text: str) -> None:
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial{target.suffix}")
     try:
-        partial.write_text("\n".join(text) + "\n")
+        partial.write_text(text)
         partial.replace(target)  # atomic: a concurrent run reads a whole file or none
     finally:
         partial.unlink(missing_ok=True)
@@ -194,11 +203,12 @@ def freefem_twin(path: Path) -> Path:
     """The cached gmsh mesh `path` in FreeFEM's format, beside it, named by the digest of that
     mesh and of this module (which converts it): never the twin of another file or of an older
     conversion. Made when missing or not whole (its first line's counts against its lines)."""
-    digest = hashlib.sha256(path.read_bytes())
+    data = path.read_bytes()  # read once: the name and the content are of the same bytes
+    digest = hashlib.sha256(data)
     digest.update(Path(__file__).read_bytes())
     twin = path.with_name(f"{path.stem}.{digest.hexdigest()[:16]}.mesh")
     if not whole_freefem_mesh(twin):
-        write_freefem(path, twin)
+        write_atomically(twin, freefem_text(data))
     return twin
 
 

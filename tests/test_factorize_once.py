@@ -25,7 +25,7 @@ def test_damage_matrices_are_factorized_when_their_active_set_changes_only(tmp_p
     assert cholesky_factorizations(tmp_path, 20) == cholesky_factorizations(tmp_path, 80) == 4
 
 
-def test_every_factorization_is_made_in_the_set_up(tmp_path):
+def test_every_cholesky_factorization_is_made_in_the_set_up(tmp_path):
     # FreeFEM factorizes at a matrix's first solve; the driver makes that solve in the set-up, so
     # the "set-up:" line comes after every factorization of a run whose active sets do not change.
     done, _ = solve(tmp_path / "run", "-N", 20, "-v", 3)

@@ -258,3 +258,14 @@ def test_loads_are_told_apart_from_prescribed_displacements_in_the_fingerprint(t
     killed_driver(folder, 100, scene=tmp_path / "moving.idp")
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": "heavier.idp"}, cwd=tmp_path)
     assert done.returncode == 3 and "other loads, boundary conditions or initial data" in done.error_line
+
+
+def test_a_restart_factorizes_each_matrix_once_before_its_steps(tmp_path):
+    """K1, K2 and the two damage matrices are factorized before the first step continued, once
+    each (FreeFEM factorizes at the first solve: the set-up and the restore make it, not step 1;
+    the paper's damage leaves the obstacle's active sets empty, so no penalized refactorization)."""
+    folder = tmp_path / "run"
+    killed_driver(folder, 140)
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder, "-v", 3])
+    assert done.returncode == 0, done.error_line
+    assert done.stdout.split("\nstep ", 1)[0].count("fac_numeric CHOLMoD") == 4
