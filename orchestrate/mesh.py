@@ -175,6 +175,7 @@ def freefem_text(data: bytes) -> str:
 
 
 def write_atomically(target: Path, text: str) -> None:
+    """`text` at `target`, through a partial file of this process and thread (remove_orphans knows it)."""
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial{target.suffix}")
     try:
         partial.write_text(text)
