@@ -258,9 +258,10 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
              "per body for u, one per body for ζ), timed in the same process; *after step 1* the same over steps "
              "2 … N, without what the first step does once (bdf2's semi-implicit start, a fixed point of "
              "contact solves; the first active sets). K and the damage matrices are factorized in the set-up. "
-             "*memory*: FreeFem++'s peak resident memory after set-up and at the end of the run (MB). *error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto "
-             "the reference's meshes; *error vs check* the same against the check. Runs under 20 s are the fastest "
-             "of 3 (this machine's timings drift by ±20 %).", "",
+             "*memory*: FreeFem++'s peak resident memory after set-up and at the end of the run (MB). "
+             "*error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto the reference's meshes; "
+             "*error vs check* the same against the check. Runs under 20 s are the fastest of 3 (this machine's "
+             "timings drift by ±20 %).", "",
              f"**Reference:** the graded mesh two levels finer than the finest measured ({reference['nodes1']} + "
              f"{reference['nodes2']} nodes), bdf2, N = "
              f"{reference['N']} (time error ≈ 1e-6). **Check:** an independent mesh of the same size — the graded "
