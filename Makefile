@@ -3,15 +3,19 @@
 SHELL := /bin/bash
 VENV := .venv
 PYTHON := $(VENV)/bin/python
-# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen, and the
+# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen, the
 # single-threaded OpenBLAS (CHOLMOD's back-substitutions 1.5-2x faster than with the reference
-# BLAS; one thread keeps runs deterministic and leaves the cores to parallel runs).
-APT_PACKAGES := freefem++ libfreefem++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
+# BLAS; one thread keeps runs deterministic and leaves the cores to parallel runs), and what
+# builds the project's own FreeFEM plugin (ff-c++ with FreeFEM's headers and g++).
+APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: setup system-packages paper test gallery
 
-setup: system-packages $(VENV)/.installed
+# edp/plugins/blocksolve.so: solves many right-hand sides at once (edp/plugins/blocksolve.cpp).
+PLUGINS := edp/plugins/blocksolve.so
+
+setup: system-packages $(VENV)/.installed $(PLUGINS)
 
 system-packages:
 	@missing=""; \
@@ -29,6 +33,10 @@ $(VENV)/.installed: pyproject.toml
 	$(VENV)/bin/pip install -q --upgrade pip
 	$(VENV)/bin/pip install -q -e ".[test]"
 	touch $@
+
+# Rebuilt when its source or FreeFEM's headers change; ff-c++'s log is shown only on failure.
+edp/plugins/%.so: edp/plugins/%.cpp /usr/include/freefem++/ff++.hpp | system-packages
+	cd edp/plugins && { ff-c++ $*.cpp > $*.log 2>&1 || { cat $*.log; exit 1; }; } && rm -f $*.o $*.log
 
 # The run goes to build/paper and is checked against the committed results/paper/summary.json, so
 # the tree stays clean on any machine; a run that does not reproduce it fails. To renew the

@@ -1,8 +1,9 @@
 """Launching FreeFem++ with the project's plugin path.
 
 Debian's /etc/freefem++.pref points at a plugin folder that does not exist; the plugins
-(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++. FF_LOADPATH fixes that for any
-working folder; FF_VERBOSITY=0 keeps FreeFEM from echoing the script. The scripts include their
+(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++, the project's own (blocksolve,
+built by `make setup`) in edp/plugins. FF_LOADPATH names both for any working folder;
+FF_VERBOSITY=0 keeps FreeFEM from echoing the script. The scripts include their
 libraries by paths relative to their own folder, so no include path is needed.
 
 No path a user chooses ever reaches FreeFEM's macro preprocessor or its source text: a run is
@@ -11,10 +12,13 @@ the script's, and a repository location FreeFEM could not take is refused here.
 """
 from __future__ import annotations
 
+import atexit
+import functools
 import os
 import shutil
 import signal
 import subprocess
+import tempfile
 import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +26,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 MAIN = REPO / "edp" / "main.edp"
 PLUGIN_DIR = Path("/usr/lib/freefem++")
+OWN_PLUGINS = REPO / "edp" / "plugins"
 
 # Exit codes of edp/main.edp (edp/lib/params.idp), and FreeFEM's own.
 EXIT_MEANING = {
@@ -84,12 +89,37 @@ def freefem_binary() -> str:
     path = shutil.which("FreeFem++")
     if path is None:
         raise FileNotFoundError("FreeFem++ not found: run `make setup` (apt packages freefem++ libfreefem++)")
+    require_own_plugins()
     return path
+
+
+def require_own_plugins() -> None:
+    """The project's plugins are built, and not older than their sources: a missing one would stop
+    FreeFEM with a bare load error, a stale one would run old code."""
+    for source in OWN_PLUGINS.glob("*.cpp"):
+        built = source.with_suffix(".so")
+        if not built.exists() or built.stat().st_mtime < source.stat().st_mtime:
+            raise FileNotFoundError(f"the FreeFEM plugin {built.relative_to(REPO)} is not built from its source, "
+                                    "or is older than it: run `make setup`")
+
+
+@functools.cache
+def own_plugins_on_load_path() -> Path:
+    """edp/plugins as FF_LOADPATH can name it. FreeFEM splits that list at every ';', so a
+    repository in a folder with one is named through a link in a private temporary folder, which
+    goes when this process ends."""
+    if ";" not in str(OWN_PLUGINS):
+        return OWN_PLUGINS
+    temporary = tempfile.gettempdir()
+    folder = Path(tempfile.mkdtemp(prefix="ff-plugins-", dir=temporary if ";" not in temporary else "/tmp"))
+    atexit.register(shutil.rmtree, folder, True)
+    (folder / "plugins").symlink_to(OWN_PLUGINS, target_is_directory=True)
+    return folder / "plugins"
 
 
 def freefem_env() -> dict[str, str]:
     env = dict(os.environ)
-    env["FF_LOADPATH"] = str(PLUGIN_DIR)
+    env["FF_LOADPATH"] = f"{PLUGIN_DIR};{own_plugins_on_load_path()}"
     env.setdefault("FF_VERBOSITY", "0")
     return env
 

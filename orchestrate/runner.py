@@ -392,9 +392,10 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
     constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
     pdas = scene.solver.contactSolver == "pdas"
     budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas else 0
-    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget)
+    block = scene.solver.columnBlock
+    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget, block)
     if free and need > free:
-        kept = need > meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, 0)
+        kept = need > meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, 0, block)
         raise TooLarge(f"this run needs about {need / 2**30:.1f} GiB ({infos[0].nodes + infos[1].nodes:,} nodes, "
                           f"{constraints} contact nodes{', the columns of K⁻¹Cᵀ kept by the active-set solver' if kept else ''}) "
                           f"and {free / 2**30:.1f} GiB are free: lower mesh.n or mesh.refine"

@@ -323,6 +323,7 @@ class Solver(Strict):
     contactMaxIt: int = field("contactMaxIt")
     bmOmega: float = field("bmOmega")
     contactColumnsMB: float = field("contactColumnsMB")
+    columnBlock: int = field("columnBlock")
     damageTol: float = field("damageTol")
     damageMaxIt: int = field("damageMaxIt")
     boundTol: float = field("boundTol")

@@ -1,0 +1,27 @@
+// blockSolve(A, B): B = A⁻¹B for every column of the dense B at once, with the solver set on A
+// (set(A, solver = ...)), factorized once as for A^-1*b. FreeFEM's A^-1*b solves one right-hand
+// side at a time; CHOLMOD's supernodal solve with many columns works in BLAS-3 and takes about a
+// quarter of the time per column (docs/model-choices.md, "Where the time goes"). The contact
+// set-up uses it for the columns of K⁻¹Cᵀ (edp/lib/contact.idp). Built by `make setup` with
+// ff-c++ (Debian package libfreefem++-dev) into this folder; loaded by `load "blocksolve"`.
+#include "ff++.hpp"
+
+static long blockSolve(Matrice_Creuse<double>* const& matrix, KNM<double>* const& columns) {
+  VirtualMatrix<int, double>* A = matrix->A;
+  KNM<double>& B = *columns;
+  if (!A || !A->WithSolver()) ExecError("blockSolve: the matrix has no solver (set(A, solver = ...) first)");
+  if (A->n != A->m || A->n != B.N())
+    ExecError("blockSolve: the right-hand sides have a different number of rows than the square matrix");
+  if (B.M() == 0) return 0;
+  ffassert(B.IsVector1());  // one contiguous column-major block, as the solver reads it
+  KNM<double> X(B.N(), B.M());
+  A->solve(&X(0, 0), &B(0, 0), B.M(), 0);
+  B = X;
+  return B.M();
+}
+
+static void init() {
+  Global.Add("blockSolve", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KNM<double>*>(blockSolve));
+}
+
+LOADFUNC(init)

@@ -1,0 +1,157 @@
+"""Blocks of contact columns (solver.columnBlock, edp/plugins/blocksolve.cpp): blockSolve solves
+many right-hand sides exactly; a run with blocks is the run one column at a time up to round-off,
+with the same contact iterations; a column's bits do not depend on when it is made, so a run
+with blocks killed and restarted continues to the bit."""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_restart import DRIVER, killed_driver, same_results  # noqa: E402
+
+from orchestrate.freefem import MAIN, REPO, run_script  # noqa: E402
+from orchestrate.runner import run  # noqa: E402
+
+# A P1 field w is reproduced exactly by solving A x = A w: the columns of B are A w_j for
+# fields w_j of different shapes, so blockSolve(A, B) must give the w_j to round-off.
+BLOCK_CHECK = textwrap.dedent("""
+    load "blocksolve"
+    mesh Th = square(12, 9);
+    fespace Vh(Th, [P1, P1]);
+    varf a([u1, u2], [v1, v2]) = int2d(Th)(dx(u1)*dx(v1) + dy(u1)*dy(v1) + dx(u2)*dx(v2) + dy(u2)*dy(v2)
+        + 0.3*(dx(u1)*dy(v2) + dy(u2)*dx(v1)) + u1*v1 + u2*v2) + on(4, u1 = 0, u2 = 0);
+    matrix full = a(Vh, Vh), half = a(Vh, Vh, sym = 1);
+    set(half, solver = SOLVER);
+    int m = COLUMNS;
+    real[int,int] B(Vh.ndof, m), W(Vh.ndof, m);
+    for (int j = 0; j < m; j++) {
+      Vh [w1, w2] = [x^(j % 3)*(1 + j*y), y*y - j*x];
+      real[int] b = full*w1[];
+      B(:, j) = b; W(:, j) = w1[];
+    }
+    cout << "columns " << blockSolve(half, B) << endl;
+    real worst = 0;
+    for (int j = 0; j < m; j++) { real[int] d = B(:, j); real[int] w = W(:, j); d -= w; worst = max(worst, d.linfty); }
+    cout.precision(17);
+    cout << "error " << worst << endl;
+""")
+
+
+@pytest.mark.parametrize("solver", ["CHOLMOD", "UMFPACK"])
+@pytest.mark.parametrize("columns", [1, 2, 3, 7, 32])
+def test_block_solve_reproduces_p1_fields_exactly(tmp_path, solver, columns):
+    script = tmp_path / "block.edp"
+    script.write_text(BLOCK_CHECK.replace("SOLVER", f'"{solver}"').replace("COLUMNS", str(columns)))
+    done = run_script(script)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"columns {columns}\n" in done.stdout
+    assert float(done.stdout.split("error ")[1].split()[0]) < 1e-12
+
+
+def test_block_solve_refuses_columns_of_another_size(tmp_path):
+    script = tmp_path / "wrong.edp"
+    script.write_text(BLOCK_CHECK.replace("SOLVER", '"CHOLMOD"').replace("COLUMNS", "2")
+                      .replace("blockSolve(half, B)", "blockSolve(half, C)")
+                      .replace("int m = 2;", "int m = 2;\nreal[int,int] C(Vh.ndof - 1, m);\nC = 1;"))
+    done = run_script(script)
+    assert done.returncode != 0 and "different number of rows" in done.stdout + done.stderr
+
+
+def numbers(path: Path) -> list[float]:
+    return [float(x) for x in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", path.read_text())]
+
+
+def column_runs(tmp_path, scene: str, overrides: dict, blocks=(1, 4, 32)):
+    folders = {}
+    for block in blocks:
+        folders[block] = tmp_path / f"block{block}"
+        run(REPO / "scenes" / f"{scene}.toml", folders[block],
+            {**overrides, "solver.columnBlock": block, "output.fields": ["state"], "output.images": False})
+    return folders
+
+
+# The paper's scene over 15 s (the contact set and the glue change) and the peel scene (the
+# bonded zone opens node by node): one column at a time, in groups of 4 and of 32.
+@pytest.mark.parametrize("scene, overrides", [
+    ("paper", {"body1.mesh.n": 12, "body2.mesh.n": 16, "time.T": 15.0, "time.N": 300, "time.scheme": "semi-implicit"}),
+    ("peel", {"body1.mesh.n": 20, "body2.mesh.n": 27}),
+])
+def test_blocks_change_only_the_last_bits(tmp_path, scene, overrides):
+    folders = column_runs(tmp_path, scene, overrides)
+    facts = {block: json.loads((folder / "run.json").read_text()) for block, folder in folders.items()}
+    one = facts[1]
+    for block, fact in facts.items():
+        # the same active sets: every step needs the same contact iterations
+        history = [line.split(",") for line in (folders[block] / "history.csv").read_text().splitlines()]
+        iterations = [row[history[0].index("contactIters")] for row in history[1:]]
+        if block == 1:
+            reference_iterations = iterations
+        assert iterations == reference_iterations
+        assert fact["contactSolves"] == one["contactSolves"]
+        # a group is made whole: at least the columns of the nodes ever active, at most all
+        assert one["contactColumns"] <= fact["contactColumns"] <= fact["constraints"]
+        reference = numbers(sorted(folders[1].glob("state_*.txt"))[-1])
+        produced = numbers(sorted(folders[block].glob("state_*.txt"))[-1])
+        scale = max(abs(x) for x in reference)
+        assert len(produced) == len(reference)
+        assert max(abs(x - y) for x, y in zip(produced, reference)) <= 1e-11*scale
+    if one["constraints"] <= 32:  # one group holds every node
+        assert facts[32]["contactColumns"] == one["constraints"]
+
+
+@pytest.fixture(scope="module")
+def hertz_scene(tmp_path_factory) -> Path:
+    """The Hertz scene's run folder: its scene.idp reruns it by hand."""
+    folder = tmp_path_factory.mktemp("hertz") / "run"
+    run(REPO / "scenes" / "hertz.toml", folder, {"output.fields": ["state"], "output.images": False})
+    return folder / "scene.idp"
+
+
+@pytest.mark.parametrize("kill_at", [30, 100])
+def test_a_run_with_blocks_continues_to_the_bit_after_a_restart(tmp_path, hertz_scene, kill_at):
+    # Hertz's contact zone grows with the load: the uninterrupted run makes its columns in groups
+    # of 3 over its first 60 steps (9 nodes at step 1, 31 by step 60), the restarted one those of
+    # its active set at the checkpoint at once and the rest later. A group of 3 leaves a column to
+    # the BLAS's single-column kernels, whose last bits differ from those of the others.
+    extra = ("-columnBlock", "3")
+    whole = tmp_path / "whole"
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", whole], cwd=hertz_scene.parent, defines={"SCENE": hertz_scene.name})
+    assert done.returncode == 0, done.error_line
+    assert json.loads((whole / "run.json").read_text())["contactColumns"] > 9
+    folder = tmp_path / "run"
+    killed_driver(folder, kill_at, extra, scene=hertz_scene)
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", folder, "-restart", folder],
+                      cwd=hertz_scene.parent, defines={"SCENE": hertz_scene.name})
+    assert done.returncode == 0, done.error_line
+    assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= kill_at
+    same_results(whole, folder)
+
+
+def test_a_plugin_not_built_from_its_source_is_named_before_freefem_starts(tmp_path, monkeypatch):
+    from orchestrate import freefem
+    plugins = tmp_path / "plugins"
+    plugins.mkdir()
+    (plugins / "blocksolve.cpp").write_text("// source\n")
+    monkeypatch.setattr(freefem, "OWN_PLUGINS", plugins)
+    monkeypatch.setattr(freefem, "REPO", tmp_path)
+    with pytest.raises(FileNotFoundError, match=r"plugins/blocksolve.so is not built .* run `make setup`"):
+        freefem.freefem_binary()
+
+
+def test_bin_ff_names_a_stale_plugin(tmp_path):
+    copy = tmp_path / "repo"
+    for name in ("bin", "edp"):
+        shutil.copytree(REPO / name, copy / name)
+    source = copy / "edp" / "plugins" / "blocksolve.cpp"
+    later = source.with_suffix(".so").stat().st_mtime + 10
+    os.utime(source, (later, later))
+    done = subprocess.run([copy / "bin" / "ff", "edp/main.edp"], cwd=copy, capture_output=True, text=True)
+    assert done.returncode == 3
+    assert "blocksolve.so is not built from its source, or is older than it: run `make setup`" in done.stderr
