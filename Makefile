@@ -10,12 +10,9 @@ PYTHON := $(VENV)/bin/python
 APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-packages paper test gallery
+.PHONY: setup system-packages plugins paper test gallery
 
-# edp/plugins/blocksolve.so: solves many right-hand sides at once (edp/plugins/blocksolve.cpp).
-PLUGINS := edp/plugins/blocksolve.so
-
-setup: system-packages $(VENV)/.installed $(PLUGINS)
+setup: system-packages $(VENV)/.installed plugins
 
 system-packages:
 	@missing=""; \
@@ -34,9 +31,10 @@ $(VENV)/.installed: pyproject.toml
 	$(VENV)/bin/pip install -q -e ".[test]"
 	touch $@
 
-# Rebuilt when its source or FreeFEM's headers change; ff-c++'s log is shown only on failure.
-edp/plugins/%.so: edp/plugins/%.cpp /usr/include/freefem++/ff++.hpp | system-packages
-	cd edp/plugins && { ff-c++ $*.cpp > $*.log 2>&1 || { cat $*.log; exit 1; }; } && rm -f $*.o $*.log
+# The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once), compiled
+# when missing or older than their source or than FreeFem++ (bin/plugins).
+plugins: system-packages
+	bin/plugins build
 
 # The run goes to build/paper and is checked against the committed results/paper/summary.json, so
 # the tree stays clean on any machine; a run that does not reproduce it fails. To renew the

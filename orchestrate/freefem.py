@@ -94,24 +94,27 @@ def freefem_binary() -> str:
 
 
 def require_own_plugins() -> None:
-    """The project's plugins are built, and not older than their sources: a missing one would stop
-    FreeFEM with a bare load error, a stale one would run old code."""
-    for source in OWN_PLUGINS.glob("*.cpp"):
-        built = source.with_suffix(".so")
-        if not built.exists() or built.stat().st_mtime < source.stat().st_mtime:
-            raise FileNotFoundError(f"the FreeFEM plugin {built.relative_to(REPO)} is not built from its source, "
-                                    "or is older than it: run `make setup`")
+    """The project's plugins are built from their sources for this FreeFem++ (bin/plugins check): a
+    missing one would stop FreeFEM with a bare load error, a stale one run old code."""
+    done = subprocess.run([REPO / "bin" / "plugins", "check"], capture_output=True, text=True)
+    if done.returncode != 0:
+        raise FileNotFoundError(done.stderr.strip().removeprefix("ERROR: "))
+
+
+def on_load_path(folder: str | Path) -> bool:
+    """Whether FF_LOADPATH can name `folder`: FreeFEM splits it at every ';' and turns every '\\'
+    into '/'."""
+    return not set(str(folder)) & set(";\\")
 
 
 @functools.cache
 def own_plugins_on_load_path() -> Path:
-    """edp/plugins as FF_LOADPATH can name it. FreeFEM splits that list at every ';', so a
-    repository in a folder with one is named through a link in a private temporary folder, which
-    goes when this process ends."""
-    if ";" not in str(OWN_PLUGINS):
+    """edp/plugins, or, for a repository in a folder FF_LOADPATH cannot name, a link to it in a
+    private temporary folder, which goes when this process ends."""
+    if on_load_path(OWN_PLUGINS):
         return OWN_PLUGINS
     temporary = tempfile.gettempdir()
-    folder = Path(tempfile.mkdtemp(prefix="ff-plugins-", dir=temporary if ";" not in temporary else "/tmp"))
+    folder = Path(tempfile.mkdtemp(prefix="ff-plugins-", dir=temporary if on_load_path(temporary) else "/tmp"))
     atexit.register(shutil.rmtree, folder, True)
     (folder / "plugins").symlink_to(OWN_PLUGINS, target_is_directory=True)
     return folder / "plugins"
@@ -119,7 +122,9 @@ def own_plugins_on_load_path() -> Path:
 
 def freefem_env() -> dict[str, str]:
     env = dict(os.environ)
-    env["FF_LOADPATH"] = f"{PLUGIN_DIR};{own_plugins_on_load_path()}"
+    # the project's first: a plugin of the same name elsewhere in the list is not taken (FreeFEM
+    # still looks in the working folder and the folders of the freefem++.pref files before)
+    env["FF_LOADPATH"] = f"{own_plugins_on_load_path()};{PLUGIN_DIR}"
     env.setdefault("FF_VERBOSITY", "0")
     return env
 

@@ -93,8 +93,8 @@ def test_a_folder_name_that_is_not_utf8_is_refused_on_the_command_line(tmp_path)
     assert not any(tmp_path.iterdir())
 
 
-def test_a_checkout_whose_path_has_hash_semicolon_quotes_and_spaces_runs(tmp_path):
-    copy = checkout_copy(tmp_path / "a#b;c 'd\" e$(id)")
+def test_a_checkout_whose_path_has_hash_semicolon_backslash_quotes_and_spaces_runs(tmp_path):
+    copy = checkout_copy(tmp_path / "a#b;c\\g 'd\" e$(id)")
     sets = sum((["--set", f"{k}={str(v).lower()}"] for k, v in COARSE.items()), [])
     done = in_copy(copy, "run", "scenes/paper.toml", *sets, "--out", tmp_path / "out")
     assert done.returncode == 0, done.stderr
