@@ -178,15 +178,17 @@ def test_a_checkpoint_made_without_a_parameter_of_this_driver_is_refused(tmp_pat
     # continue the run it was made by (one column at a time) to the bit.
     folder = tmp_path / "run"
     killed_driver(folder, 100)
-    checkpoints = list(folder.glob("checkpoint-*.txt"))
-    assert checkpoints
-    for checkpoint in checkpoints:
+    edited = 0
+    for checkpoint in folder.glob("checkpoint-*.txt"):
         lines = checkpoint.read_text().splitlines()
-        at = next(j for j, line in enumerate(lines) if line.startswith("parameters "))
+        at = [j for j, line in enumerate(lines) if line.startswith("parameters ")]
         kept = [line for line in lines if not line.startswith("columnBlock ")]
-        assert len(kept) == len(lines) - 1
-        kept[at] = f"parameters {int(lines[at].split()[1]) - 1}"
+        if not at or len(kept) == len(lines):
+            continue  # cut short by the kill: the restart passes it over
+        kept[at[0]] = f"parameters {int(lines[at[0]].split()[1]) - 1}"
         checkpoint.write_text("\n".join(kept) + "\n")
+        edited += 1
+    assert edited
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])
     assert done.returncode == 3
     assert "was made by a driver without 1 of this driver's parameters" in done.error_line, done.error_line
