@@ -32,7 +32,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 # The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once), compiled
-# when missing or older than their source or than FreeFem++ (bin/plugins).
+# unless built from their source as it is for the FreeFem++ installed (bin/plugins).
 plugins: system-packages
 	bin/plugins build
 

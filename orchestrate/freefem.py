@@ -7,8 +7,9 @@ FF_VERBOSITY=0 keeps FreeFEM from echoing the script. The scripts include their
 libraries by paths relative to their own folder, so no include path is needed.
 
 No path a user chooses ever reaches FreeFEM's macro preprocessor or its source text: a run is
-launched in its own folder with fixed file names (runner.py); the only path FreeFEM is given is
-the script's, and a repository location FreeFEM could not take is refused here.
+launched in its own folder with fixed file names (runner.py); the only paths FreeFEM is given are
+the script's and, in FF_LOADPATH, the plugin folder's (through a link where the repository's
+location holds a character that list cannot carry).
 """
 from __future__ import annotations
 
@@ -89,16 +90,21 @@ def freefem_binary() -> str:
     path = shutil.which("FreeFem++")
     if path is None:
         raise FileNotFoundError("FreeFem++ not found: run `make setup` (apt packages freefem++ libfreefem++)")
-    require_own_plugins()
+    require_own_plugins(REPO)
     return path
 
 
-def require_own_plugins() -> None:
-    """The project's plugins are built from their sources for this FreeFem++ (bin/plugins check): a
-    missing one would stop FreeFEM with a bare load error, a stale one run old code."""
-    done = subprocess.run([REPO / "bin" / "plugins", "check"], capture_output=True, text=True)
+@functools.cache
+def require_own_plugins(repo: Path) -> None:
+    """The project's plugins are built from their sources for this FreeFem++ (bin/plugins check), once
+    a process: a missing one would stop FreeFEM with a bare load error, a stale one run old code."""
+    try:
+        done = subprocess.run(["bash", repo / "bin" / "plugins", "check"], capture_output=True, text=True)
+    except OSError as error:
+        raise FileNotFoundError(f"bin/plugins could not check the FreeFEM plugins ({error}): run `make setup`") from None
     if done.returncode != 0:
-        raise FileNotFoundError(done.stderr.strip().removeprefix("ERROR: "))
+        raise FileNotFoundError(done.stderr.strip().removeprefix("ERROR: ")
+                                or f"bin/plugins check failed (exit {done.returncode}): run `make setup`")
 
 
 def on_load_path(folder: str | Path) -> bool:
@@ -115,7 +121,8 @@ def own_plugins_on_load_path() -> Path:
         return OWN_PLUGINS
     temporary = tempfile.gettempdir()
     folder = Path(tempfile.mkdtemp(prefix="ff-plugins-", dir=temporary if on_load_path(temporary) else "/tmp"))
-    atexit.register(shutil.rmtree, folder, True)
+    creator = os.getpid()  # a forked child leaves the link to the process that made it
+    atexit.register(lambda: os.getpid() == creator and shutil.rmtree(folder, True))
     (folder / "plugins").symlink_to(OWN_PLUGINS, target_is_directory=True)
     return folder / "plugins"
 

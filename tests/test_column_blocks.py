@@ -4,19 +4,20 @@ with the same contact iterations; a column's bits do not depend on when it is ma
 with blocks killed and restarted continues to the bit."""
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_restart import DRIVER, killed_driver, same_results  # noqa: E402
+from test_restart import DRIVER, killed_driver, rows, same_results  # noqa: E402
 
 from orchestrate.freefem import MAIN, REPO, run_script  # noqa: E402
+from orchestrate.results import STATE_ARRAYS, read_state  # noqa: E402
 from orchestrate.runner import run  # noqa: E402
 
 # A P1 field w is reproduced exactly by solving A x = A w: the columns of B are A w_j for
@@ -64,10 +65,6 @@ def test_block_solve_refuses_columns_of_another_size(tmp_path):
     assert done.returncode != 0 and "different number of rows" in done.stdout + done.stderr
 
 
-def numbers(path: Path) -> list[float]:
-    return [float(x) for x in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", path.read_text())]
-
-
 def column_runs(tmp_path, scene: str, overrides: dict, blocks=(1, 4, 32)):
     folders = {}
     for block in blocks:
@@ -99,11 +96,12 @@ def test_blocks_change_only_the_last_bits(tmp_path, scene, overrides, never_acti
         assert fact["contactSolves"] == one["contactSolves"]
         # a group is made whole: at least the columns of the nodes ever active, at most all
         assert one["contactColumns"] <= fact["contactColumns"] <= fact["constraints"]
-        reference = numbers(sorted(folders[1].glob("state_*.txt"))[-1])
-        produced = numbers(sorted(folders[block].glob("state_*.txt"))[-1])
-        scale = max(abs(x) for x in reference)
-        assert len(produced) == len(reference)
-        assert max(abs(x - y) for x, y in zip(produced, reference)) <= 1e-11*scale
+        reference = read_state(sorted(folders[1].glob("state_*.txt"))[-1])
+        produced = read_state(sorted(folders[block].glob("state_*.txt"))[-1])
+        for name in STATE_ARRAYS:  # each field against its own largest value
+            assert produced[name].shape == reference[name].shape, name
+            scale = np.abs(reference[name]).max()
+            assert np.abs(produced[name] - reference[name]).max() <= 1e-11*scale, name
     assert one["contactColumns"] == one["constraints"] - never_active
     assert facts[32]["contactColumns"] == one["constraints"] <= 32  # one group holds every node
 
@@ -129,10 +127,11 @@ def test_a_run_with_blocks_continues_to_the_bit_after_a_restart(tmp_path, hertz_
     assert json.loads((whole / "run.json").read_text())["contactColumns"] > 9
     folder = tmp_path / "run"
     killed_driver(folder, kill_at, extra, scene=hertz_scene)
+    killed_at = rows(folder)  # a few rows past kill_at: a Hertz step takes milliseconds
     done = run_script(MAIN, [*DRIVER, *extra, "-out", folder, "-restart", folder],
                       cwd=hertz_scene.parent, defines={"SCENE": hertz_scene.name})
     assert done.returncode == 0, done.error_line
-    assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= kill_at
+    assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= killed_at
     same_results(whole, folder)
 
 
@@ -149,28 +148,32 @@ def test_a_missing_plugin_is_named_before_freefem_starts(tmp_path, monkeypatch):
     copy = plugin_copy(tmp_path)
     (copy / "edp" / "plugins" / "blocksolve.so").unlink()
     monkeypatch.setattr(freefem, "REPO", copy)
-    with pytest.raises(FileNotFoundError, match=r"plugins/blocksolve.so is missing, or older .* run `make setup`"):
+    with pytest.raises(FileNotFoundError, match=r"plugins/blocksolve.so is missing, or not built .* run `make setup`"):
         freefem.freefem_binary()
 
 
-def test_bin_ff_names_a_plugin_older_than_its_source(tmp_path):
+def test_bin_ff_names_a_plugin_not_built_from_its_source_as_it_is(tmp_path):
     copy = plugin_copy(tmp_path)
     source = copy / "edp" / "plugins" / "blocksolve.cpp"
-    later = source.with_suffix(".so").stat().st_mtime + 10
-    os.utime(source, (later, later))
+    source.write_text(source.read_text() + "// edited\n")
     done = subprocess.run([copy / "bin" / "ff", "edp/main.edp"], cwd=copy, capture_output=True, text=True)
     assert done.returncode == 3
-    assert "blocksolve.so is missing, or older than its source or than FreeFem++: run `make setup`" in done.stderr
+    assert "blocksolve.so is missing, or not built from its source for this FreeFem++: run `make setup`" in done.stderr
 
 
-def test_bin_plugins_compiles_what_is_missing(tmp_path):
+def test_bin_plugins_compiles_what_is_missing_and_fails_loudly(tmp_path):
     copy = plugin_copy(tmp_path)
-    built = copy / "edp" / "plugins" / "blocksolve.so"
-    built.unlink()
+    plugins = copy / "edp" / "plugins"
+    (plugins / "blocksolve.so").unlink()
     done = subprocess.run([copy / "bin" / "plugins", "build"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert built.exists() and sorted(p.name for p in built.parent.iterdir()) == ["blocksolve.cpp", "blocksolve.so"]
+    assert sorted(p.name for p in plugins.iterdir()) == ["blocksolve.built-for", "blocksolve.cpp", "blocksolve.so"]
     assert subprocess.run([copy / "bin" / "plugins", "check"]).returncode == 0
+    (plugins / "blocksolve.cpp").write_text("this is not C++\n")
+    done = subprocess.run([copy / "bin" / "plugins", "build"], capture_output=True, text=True)
+    assert done.returncode == 1 and "ff-c++ did not build" in done.stderr
+    assert not (plugins / "blocksolve.so").exists()
+    assert subprocess.run([copy / "bin" / "plugins", "check"], capture_output=True).returncode == 3
 
 
 def test_a_checkpoint_made_without_a_parameter_of_this_driver_is_refused(tmp_path):
