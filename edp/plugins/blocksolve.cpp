@@ -1,8 +1,8 @@
 // blockSolve(A, B): B = A⁻¹B for every column of the dense B at once, with the solver set on A
 // (set(A, solver = ...)), factorized once as for A^-1*b. FreeFEM's A^-1*b solves one right-hand
 // side at a time; CHOLMOD's supernodal solve with many columns works in BLAS-3 and takes a third
-// to a quarter of the time per column (docs/model-choices.md, "Contact columns in blocks"). The contact
-// set-up uses it for the columns of K⁻¹Cᵀ (edp/lib/contact.idp). Compiled by ff-c++ (Debian
+// to a quarter of the time per column (docs/model-choices.md, "Contact columns in blocks"). The
+// contact set-up uses it for the columns of K⁻¹Cᵀ (edp/lib/contact.idp). Compiled by ff-c++ (Debian
 // package libfreefem++-dev) into this folder by `make setup` (bin/plugins); loaded by
 // `load "blocksolve"` from FF_LOADPATH, which bin/ff and orchestrate set.
 #include <climits>
