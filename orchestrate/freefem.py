@@ -3,7 +3,8 @@
 Debian's /etc/freefem++.pref points at a plugin folder that does not exist; the plugins
 (iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++, the project's own (blocksolve,
 built by `make setup`) in edp/plugins. FF_LOADPATH names both for any working folder;
-FF_VERBOSITY=0 keeps FreeFEM from echoing the script. The scripts include their
+FF_VERBOSITY=0 keeps FreeFEM from echoing the script, OMP_THREAD_LIMIT=1 makes CHOLMOD's
+factorizations faster (a user's own value is kept). The scripts include their
 libraries by paths relative to their own folder, so no include path is needed.
 
 No path a user chooses ever reaches FreeFEM's macro preprocessor or its source text: a run is
@@ -133,6 +134,9 @@ def freefem_env() -> dict[str, str]:
     # still looks in the working folder and the folders of the freefem++.pref files before)
     env["FF_LOADPATH"] = f"{own_plugins_on_load_path()};{PLUGIN_DIR}"
     env.setdefault("FF_VERBOSITY", "0")
+    # CHOLMOD's factorizations run OpenMP regions; without a limit they cost this machine ~1.8x
+    # the wall time of a factorization in context switches (docs/freefem-facts.md); same results
+    env.setdefault("OMP_THREAD_LIMIT", "1")
     return env
 
 

@@ -1,7 +1,9 @@
 """Facts about this machine's FreeFEM that the solver relies on, checked against exact answers."""
+import os
+import subprocess
 import textwrap
 
-from orchestrate.freefem import run_script
+from orchestrate.freefem import REPO, freefem_command, freefem_env, run_script
 
 # A P1 vector field is reproduced exactly by solving A x = A w, whatever A's (SPD) form.
 SOLVE_CHECK = textwrap.dedent("""
@@ -36,3 +38,41 @@ def test_cholmod_solves_half_stored_matrices_exactly(tmp_path):
 
 def test_umfpack_solves_half_stored_matrices_exactly(tmp_path):
     assert solve_error(tmp_path, "UMFPACK") < 1e-12
+
+
+# Large enough for CHOLMOD's supernodal factorization, the one that runs OpenMP regions.
+SUPERNODAL_SOLVE = SOLVE_CHECK.replace("square(6, 6)", "square(150, 150)").replace(
+    'getARGV("-solver", "CHOLMOD")', '"CHOLMOD"').replace(
+    'cout << "error " << x.linfty << endl;', 'cout << "error " << x.linfty << endl;\nx += w1[];\ncout << x << endl;')
+
+
+def test_cholmod_gives_the_same_bits_with_openmp_limited_to_one_thread(tmp_path):
+    # orchestrate and bin/ff set OMP_THREAD_LIMIT=1 for speed (docs/freefem-facts.md): the results
+    # must not change with it. Each run is also checked against the exact field.
+    script = tmp_path / "supernodal.edp"
+    script.write_text(SUPERNODAL_SOLVE)
+    outputs = []
+    for limit in (None, "1"):
+        env = {key: value for key, value in freefem_env().items() if key != "OMP_THREAD_LIMIT"}
+        if limit:
+            env["OMP_THREAD_LIMIT"] = limit
+        done = subprocess.run(freefem_command(script), env=env, capture_output=True, text=True, cwd=REPO)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert float(done.stdout.split("error ")[1].split()[0]) < 1e-10
+        outputs.append(done.stdout)
+    assert outputs[0] == outputs[1]
+
+
+GET_LIMIT = 'load "shell"\ncout << "limit [" << getenv("OMP_THREAD_LIMIT") << "]" << endl;\n'
+
+
+def test_launchers_limit_openmp_to_one_thread_unless_the_caller_chose(tmp_path, monkeypatch):
+    script = tmp_path / "limit.edp"
+    script.write_text(GET_LIMIT)
+    monkeypatch.delenv("OMP_THREAD_LIMIT", raising=False)
+    by_hand = subprocess.run(["bash", REPO / "bin" / "ff", script], capture_output=True, text=True,
+                             env={**os.environ})
+    assert "limit [1]" in by_hand.stdout, by_hand.stdout + by_hand.stderr
+    assert "limit [1]" in run_script(script).stdout
+    monkeypatch.setenv("OMP_THREAD_LIMIT", "2")
+    assert "limit [2]" in run_script(script).stdout
