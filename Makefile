@@ -6,8 +6,9 @@ PYTHON := $(VENV)/bin/python
 # FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen, the
 # single-threaded OpenBLAS (CHOLMOD's back-substitutions 1.5-2x faster than with the reference
 # BLAS; one thread keeps runs deterministic and leaves the cores to parallel runs), and what
-# builds the project's own FreeFEM plugin (ff-c++ with FreeFEM's headers and g++).
-APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
+# builds the project's own FreeFEM plugins (ff-c++ with FreeFEM's headers, SuiteSparse's for
+# factorsplit, and g++).
+APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev libsuitesparse-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: setup system-packages plugins paper test gallery
@@ -31,7 +32,8 @@ $(VENV)/.installed: pyproject.toml
 	$(VENV)/bin/pip install -q -e ".[test]"
 	touch $@
 
-# The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once), compiled
+# The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once;
+# factorsplit, the halves of CHOLMOD's solves), compiled
 # unless built from their source as it is for the FreeFem++ installed (bin/plugins).
 plugins: system-packages
 	bin/plugins build

@@ -372,7 +372,8 @@ def estimated_memory(nodes: int, constraints: int, column_budget: float, column_
     """FreeFem++'s peak memory for a run on `nodes` mesh nodes with `constraints` contact nodes:
     per node (BYTES_PER_NODE, measured) plus the dense columns of K⁻¹Cᵀ of both bodies (2 dofs per
     node, at most one column per constraint) that the active-set solver keeps when they all fit in
-    `column_budget` bytes (edp/lib/contact.idp; 0 for Bermúdez–Moreno), plus a block of
+    `column_budget` bytes (edp/lib/contact.idp; 0 for Bermúdez–Moreno and for the condensation on
+    the factor, whose L⁻¹PCᵀ is sparse), plus a block of
     `column_block` of them while it is solved, three times over (right-hand sides, solution and
     the solver's work space; 121 MB measured for 147 MB so estimated, at 95 614 nodes and 32)."""
     columns = 16 * nodes * constraints

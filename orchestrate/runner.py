@@ -391,7 +391,7 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
         infos.append(info)
     constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
     pdas = scene.solver.contactSolver == "pdas"
-    budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas else 0
+    budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas and not scene.solver.factored else 0
     block = scene.solver.columnBlock
     need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget, block)
     if free and need > free:

@@ -322,6 +322,7 @@ class Solver(Strict):
     contactTol: float = field("contactTol")
     contactMaxIt: int = field("contactMaxIt")
     bmOmega: float = field("bmOmega")
+    condensation: Literal[PARAMETERS["condensation"].choices] = field("condensation")
     contactColumnsMB: float = field("contactColumnsMB")
     columnBlock: int = field("columnBlock")
     damageTol: float = field("damageTol")
@@ -330,6 +331,19 @@ class Solver(Strict):
     linearSolver: Literal[PARAMETERS["linearSolver"].choices] = field("linearSolver")
     allowUnstable: bool = field("allowUnstable")
     divergenceFactor: float = field("divergenceFactor")
+
+    @property
+    def factored(self) -> bool:
+        """Whether the driver condenses the contact problem on CHOLMOD's factor (as contact.idp
+        decides it: run.json condensation)."""
+        return self.condensation == "factor" or (self.condensation == "auto" and self.linearSolver == "CHOLMOD")
+
+    @model_validator(mode="after")
+    def factor_needs_cholmod(self):
+        if self.condensation == "factor" and self.linearSolver != "CHOLMOD":
+            raise ValueError(f"condensation = factor splits CHOLMOD's solves: it needs linearSolver = CHOLMOD "
+                             f"(linearSolver = {self.linearSolver} here; give condensation = columns)")
+        return self
 
 
 class Output(Strict):

@@ -186,7 +186,7 @@ def test_a_resumed_run_counts_its_steps_from_its_checkpoint(tmp_path, capsys):
     killed_runner(out, 150)
     partial = out.with_name("run.partial")
     checkpoint, written = checkpoint_step(partial), rows(partial)
-    assert 0 < checkpoint < written
+    assert 0 < checkpoint <= written  # equal when the kill came right after a checkpoint's step
     run(PEEL, out, PEEL_SET, resume=True, progress=True)
     steps = [int(n) for n in re.findall(r"(\d+)/400\b", capsys.readouterr().err)]
     assert steps[0] == checkpoint and steps[-1] == 400 and steps == sorted(steps)

@@ -2,8 +2,10 @@
 the driver run by hand give history.csv (its measured stepSeconds column aside), .vtu and state
 files identical to the bit to those recorded in tests/golden/results.json.
 
-The runs solve the columns of K⁻¹Cᵀ one at a time (solver.columnBlock = 1), as the code of the
-record did; the default, blocks of columns, changes the last bits only (tests/test_column_blocks.py).
+The runs condense the contact problem with the dense columns of K⁻¹Cᵀ, one at a time
+(solver.condensation = "columns", solver.columnBlock = 1), as the code of the record did; the
+defaults, blocks of columns and the factor's halves, change the last bits only
+(tests/test_column_blocks.py, tests/test_factor_split.py).
 
 The record was made by `python tests/test_unchanged.py` at commit 98e60a3, before the per-body
 state, the parameter table and the driver's loop were redesigned (issue "The house"). It is the
@@ -31,7 +33,7 @@ RECORD = Path(__file__).resolve().parent / "golden" / "results.json"
 FILES = {"outTimes": "0.5,1", "outFields": "bodies,stress,contact,state"}
 SCENE_FILES = {"output.times": [0.5, 1.0], "output.fields": ["bodies", "stress", "contact", "state"],
                "output.images": False}
-ONE_AT_A_TIME = {"solver.columnBlock": 1}
+ONE_AT_A_TIME = {"solver.condensation": "columns", "solver.columnBlock": 1}
 # scene name: overrides (the resolutions of tests/test_gallery.py and tests/test_run.py)
 SCENE_CASES = {
     "paper": {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20},
@@ -70,7 +72,7 @@ def scene_case(name: str, folder: Path) -> dict[str, str]:
 
 def hand_case(name: str, folder: Path) -> dict[str, str]:
     flags, scene = HAND_CASES[name]
-    args = [*flags, "-columnBlock", "1", *(item for pair in FILES.items() for item in ("-" + pair[0], pair[1]))]
+    args = [*flags, "-condensation", "columns", "-columnBlock", "1", *(item for pair in FILES.items() for item in ("-" + pair[0], pair[1]))]
     done, _ = solve(folder / name, *args, scene=SCENES / scene if scene else None)
     assert done.returncode == 0, done.error_line
     return digest_of(folder / name)

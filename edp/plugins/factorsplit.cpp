@@ -1,0 +1,272 @@
+// The two halves of a CHOLMOD solve, on the factorization FreeFEM made for K (set(K, solver =
+// CHOLMOD), factorized): K = Pᵀ L D Lᵀ P (D = I for CHOLMOD's supernodal LLᵀ), so
+//   K⁻¹b = factorBackward(K, factorForward(K, b)),  forward: D⁻¹ L⁻¹ P b,  backward: Pᵀ L⁻ᵀ x,
+// to the bit what K^-1*b gives (CHOLMOD's own solve runs the same steps). The contact problem is
+// condensed with them (edp/lib/contact.idp, condensation = factor): with Y = L⁻¹ P Cᵀ and
+// Ŷ = D⁻¹ Y, S = C K⁻¹ Cᵀ = Yᵀ Ŷ, C K⁻¹ F = Yᵀ forward(F) and K⁻¹(F − Cᵀλ) =
+// backward(forward(F) − Ŷ λ): a step costs one solve, and Y is sparse (L⁻¹ of a column with a
+// few nonzeros reaches only the rows of its elimination-tree path), where K⁻¹Cᵀ is dense.
+//   factorComplete(K)                           false when CHOLMOD stopped at a pivot that was not
+//                                               positive (K not SPD in double precision); true
+//                                               for a complete factor or another solver
+//   factorForward(K, x), factorBackward(K, x)   in place, x a real[int] of K's size
+//   factorColumns(K, Ct, Y, Yhat, S, block)     Y, Yhat (matrices) and S (real[int,int]) from the
+//                                               sparse n × m Cᵀ, block columns per solve
+// Needs FreeFEM's CHOLMOD solver object (VirtualSolverSparseSuite.hpp, with the SuiteSparse
+// headers of Debian's libsuitesparse-dev). Compiled by `make setup` (bin/plugins), loaded by
+// `load "factorsplit"` from FF_LOADPATH.
+#include <algorithm>
+#include <climits>
+#include <vector>
+#define HAVE_LIBUMFPACK 1
+#define HAVE_SUITESPARSE_UMFPACK_H 1
+#include "ff++.hpp"
+#include "AFunction_ext.hpp"
+#include "VirtualSolverSparseSuite.hpp"
+
+typedef VirtualSolverCHOLMOD<int, double> Cholmod;
+
+static Cholmod* factorOf(Matrice_Creuse<double>* const& matrix, const char* who) {
+  VirtualMatrix<int, double>* A = matrix->A;
+  Cholmod* solver = A && A->WithSolver() ? dynamic_cast<Cholmod*>(A->vsolver) : 0;
+  if (!solver) ExecError(std::string(who) + ": the matrix has no CHOLMOD solver (set(A, solver = \"CHOLMOD\"))");
+  if (!solver->L || solver->L->minor < solver->L->n)
+    ExecError(std::string(who) + ": the matrix is not factorized, or not positive definite (solve with it once first)");
+  return solver;
+}
+
+// X = steps applied in turn to the n × columns block at x (column-major), in place.
+static void apply(Cholmod* solver, std::initializer_list<int> steps, double* x, int columns) {
+  cholmod_dense in, out, *result = &out;
+  std::vector<double> work(static_cast<size_t>(solver->n)*columns);
+  for (int system : steps) {
+    solver->set_cholmod_dense(in, x, columns);
+    solver->set_cholmod_dense(out, work.data(), columns);
+    if (!cholmod_solve2(system, solver->L, &in, NULL, &result, NULL, &solver->Ywork, &solver->Ework, &solver->c)
+        || result != &out)
+      ExecError("factorsplit: CHOLMOD's solve failed");
+    std::copy(work.begin(), work.end(), x);
+  }
+}
+
+static bool factorComplete(Matrice_Creuse<double>* const& matrix) {
+  VirtualMatrix<int, double>* A = matrix->A;
+  Cholmod* solver = A && A->WithSolver() ? dynamic_cast<Cholmod*>(A->vsolver) : 0;
+  return !solver || !solver->L || solver->L->minor == solver->L->n;
+}
+
+static Cholmod* sized(Matrice_Creuse<double>* const& matrix, KN<double>* const& x, const char* who) {
+  Cholmod* solver = factorOf(matrix, who);
+  if (x->N() != solver->n) ExecError(std::string(who) + ": the vector's size is not the matrix's");
+  return solver;
+}
+
+static long factorForward(Matrice_Creuse<double>* const& matrix, KN<double>* const& x) {
+  Cholmod* solver = sized(matrix, x, "factorForward");
+  apply(solver, {CHOLMOD_P, CHOLMOD_LD}, &(*x)[0], 1);
+  return 0;
+}
+
+static long factorBackward(Matrice_Creuse<double>* const& matrix, KN<double>* const& x) {
+  Cholmod* solver = sized(matrix, x, "factorBackward");
+  apply(solver, {CHOLMOD_Lt, CHOLMOD_Pt}, &(*x)[0], 1);
+  return 0;
+}
+
+// A sparse matrix by columns: the entries of column c are row[k], value[k], start[c] ≤ k < start[c + 1].
+struct Columns {
+  std::vector<int> start, row;
+  std::vector<double> value;
+};
+
+static Columns columnsOf(HashMatrix<int, double>& A) {
+  Columns C;
+  C.start.assign(A.m + 1, 0);
+  for (size_t k = 0; k < A.nnz; k++) C.start[A.j[k] + 1]++;
+  for (int c = 0; c < A.m; c++) C.start[c + 1] += C.start[c];
+  C.row.resize(A.nnz);
+  C.value.resize(A.nnz);
+  std::vector<int> next(C.start.begin(), C.start.end() - 1);
+  for (size_t k = 0; k < A.nnz; k++) {
+    int at = next[A.j[k]]++;
+    C.row[at] = A.i[k];
+    C.value[at] = A.aij[k];
+  }
+  return C;
+}
+
+static void store(Matrice_Creuse<double>* const& target, int n, const Columns& C) {
+  HashMatrix<int, double>* A = new HashMatrix<int, double>(n, static_cast<int>(C.start.size()) - 1, C.row.size(), 0);
+  for (size_t c = 0; c + 1 < C.start.size(); c++)
+    for (int k = C.start[c]; k < C.start[c + 1]; k++) (*A)(C.row[k], static_cast<int>(c)) = C.value[k];
+  target->A.master(A);
+  target->typemat = 0;
+}
+
+extern "C" {
+void dtrsm_(const char*, const char*, const char*, const char*, const int*, const int*, const double*, const double*,
+            const int*, double*, const int*);
+void dgemm_(const char*, const char*, const int*, const int*, const int*, const double*, const double*, const int*,
+            const double*, const int*, const double*, double*, const int*);
+}
+
+// L⁻¹ of a block of columns with few nonzeros, on CHOLMOD's supernodal LLᵀ: only the supernodes
+// on the elimination-tree paths from the block's nonzero rows up to the root are touched (the
+// others' part of the solution is exactly zero), each as CHOLMOD's own solve does it (the
+// triangular solve of its diagonal block, then the product with the rows below, subtracted
+// from the ancestors' rows). Y's columns are nonzero on those supernodes' columns only.
+struct Supernodes {
+  const cholmod_factor* L;
+  std::vector<int> ofColumn, parent;
+  explicit Supernodes(const cholmod_factor* factor) : L(factor), ofColumn(factor->n), parent(factor->nsuper, -1) {
+    const int *super = static_cast<int*>(L->super), *pi = static_cast<int*>(L->pi), *rows = static_cast<int*>(L->s);
+    for (size_t s = 0; s < L->nsuper; s++)
+      for (int k = super[s]; k < super[s + 1]; k++) ofColumn[k] = static_cast<int>(s);
+    for (size_t s = 0; s < L->nsuper; s++) {
+      const int columns = super[s + 1] - super[s];
+      if (pi[s + 1] - pi[s] > columns) parent[s] = ofColumn[rows[pi[s] + columns]];
+    }
+  }
+  // X (n × size, column-major, zero outside the rows of `path`) ← L⁻¹ X; path: the supernodes
+  // from `marked`, ascending (children before parents).
+  void solve(double* X, int size, const std::vector<int>& path) const {
+    const int *super = static_cast<int*>(L->super), *pi = static_cast<int*>(L->pi), *rows = static_cast<int*>(L->s);
+    const int *px = static_cast<int*>(L->px), n = static_cast<int>(L->n);
+    const double *Lx = static_cast<double*>(L->x), one = 1, zero = 0;
+    std::vector<double> below;
+    for (int s : path) {
+      const int first = super[s], columns = super[s + 1] - first, height = pi[s + 1] - pi[s], under = height - columns;
+      const double* block = Lx + px[s];
+      dtrsm_("L", "L", "N", "N", &columns, &size, &one, block, &height, X + first, &n);
+      if (under == 0) continue;
+      below.assign(static_cast<size_t>(under)*size, 0.);
+      dgemm_("N", "N", &under, &size, &columns, &one, block + columns, &height, X + first, &n, &zero, below.data(), &under);
+      for (int j = 0; j < size; j++)
+        for (int i = 0; i < under; i++) X[static_cast<size_t>(j)*n + rows[pi[s] + columns + i]] -= below[static_cast<size_t>(j)*under + i];
+    }
+  }
+};
+
+// Y = L⁻¹ P Cᵀ in blocks of `block` columns, each column's exact zeros left out.
+static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int block) {
+  const int n = solver->n;
+  const cholmod_factor* L = solver->L;
+  Columns Y;
+  Y.start.push_back(0);
+  std::vector<double> X(static_cast<size_t>(n)*block, 0.);
+  if (!L->is_super) {  // simplicial (small matrices): CHOLMOD's dense solve of the block
+    for (int first = 0; first < m; first += block) {
+      const int size = std::min(block, m - first);
+      std::fill(X.begin(), X.end(), 0.);
+      for (int j = 0; j < size; j++)
+        for (int k = C.start[first + j]; k < C.start[first + j + 1]; k++) X[static_cast<size_t>(j)*n + C.row[k]] += C.value[k];
+      apply(solver, {CHOLMOD_P, CHOLMOD_L}, X.data(), size);
+      for (int j = 0; j < size; j++) {
+        for (int r = 0; r < n; r++)
+          if (X[static_cast<size_t>(j)*n + r] != 0) { Y.row.push_back(r); Y.value.push_back(X[static_cast<size_t>(j)*n + r]); }
+        Y.start.push_back(static_cast<int>(Y.row.size()));
+      }
+    }
+    return Y;
+  }
+  const Supernodes tree(L);
+  const int* perm = static_cast<int*>(L->Perm);
+  std::vector<int> inverse(n);  // P b: (P b)[k] = b[perm[k]]
+  for (int k = 0; k < n; k++) inverse[perm ? perm[k] : k] = k;
+  std::vector<char> marked(L->nsuper, 0);
+  const int* super = static_cast<int*>(L->super);
+  for (int first = 0; first < m; first += block) {
+    const int size = std::min(block, m - first);
+    std::vector<int> path;
+    for (int j = 0; j < size; j++)
+      for (int k = C.start[first + j]; k < C.start[first + j + 1]; k++) {
+        const int row = inverse[C.row[k]];
+        X[static_cast<size_t>(j)*n + row] += C.value[k];
+        for (int s = tree.ofColumn[row]; s >= 0 && !marked[s]; s = tree.parent[s]) { marked[s] = 1; path.push_back(s); }
+      }
+    std::sort(path.begin(), path.end());
+    tree.solve(X.data(), size, path);
+    for (int j = 0; j < size; j++) {
+      double* column = X.data() + static_cast<size_t>(j)*n;
+      for (int s : path)
+        for (int r = super[s]; r < super[s + 1]; r++)
+          if (column[r] != 0) { Y.row.push_back(r); Y.value.push_back(column[r]); column[r] = 0; }
+      Y.start.push_back(static_cast<int>(Y.row.size()));
+    }
+    for (int s : path) marked[s] = 0;
+  }
+  return Y;
+}
+
+// Ŷ = D⁻¹ Y: the diagonal of a simplicial LDLᵀ (its first entry of each column); LLᵀ: Ŷ = Y.
+static Columns scaledColumns(const cholmod_factor* L, const Columns& Y) {
+  Columns D = Y;
+  if (L->is_ll) return D;
+  const int* p = static_cast<int*>(L->p);
+  const double* x = static_cast<double*>(L->x);
+  for (size_t k = 0; k < D.row.size(); k++) D.value[k] /= x[p[D.row[k]]];
+  return D;
+}
+
+// S = Yᵀ Ŷ (m × m) row by row of Y: each row adds the products of its entries' pairs; the rows
+// with many entries (the supernodes near the root, on every column's path) are gathered into
+// dense columns and added by one dgemm.
+static void condensed(const Columns& Y, const Columns& D, int n, int m, KNM<double>& S) {
+  const int crowded = 16;  // entries from which a row goes to the dgemm
+  std::vector<int> count(n + 1, 0);
+  for (int r : Y.row) count[r + 1]++;
+  for (int r = 0; r < n; r++) count[r + 1] += count[r];
+  std::vector<int> next(count.begin(), count.end() - 1), column(Y.row.size());
+  std::vector<double> y(Y.row.size()), yHat(Y.row.size());
+  for (int c = 0; c < m; c++)
+    for (int k = Y.start[c]; k < Y.start[c + 1]; k++) {
+      const int at = next[Y.row[k]]++;
+      column[at] = c; y[at] = Y.value[k]; yHat[at] = D.value[k];
+    }
+  S = 0.;
+  std::vector<double> G, GHat;  // the crowded rows, one m-column each
+  for (int r = 0; r < n; r++) {
+    if (count[r + 1] - count[r] >= crowded) {
+      G.resize(G.size() + m, 0.); GHat.resize(GHat.size() + m, 0.);
+      double *g = &G[G.size() - m], *gHat = &GHat[GHat.size() - m];
+      for (int a = count[r]; a < count[r + 1]; a++) { g[column[a]] = y[a]; gHat[column[a]] = yHat[a]; }
+      continue;
+    }
+    for (int a = count[r]; a < count[r + 1]; a++)
+      for (int b = count[r]; b < count[r + 1]; b++) S(column[a], column[b]) += y[a]*yHat[b];
+  }
+  const int rows = static_cast<int>(G.size()/std::max(m, 1));
+  const double one = 1;
+  if (rows > 0) dgemm_("N", "T", &m, &m, &rows, &one, G.data(), &m, GHat.data(), &m, &one, &S(0, 0), &m);
+}
+
+static long factorColumns(Matrice_Creuse<double>* const& matrix, Matrice_Creuse<double>* const& transposedC,
+                          Matrice_Creuse<double>* const& Y, Matrice_Creuse<double>* const& Yhat,
+                          KNM<double>* const& S, long const& columnBlock) {
+  Cholmod* solver = factorOf(matrix, "factorColumns");
+  HashMatrix<int, double>* Ct = transposedC->pHM();
+  if (!Ct || Ct->n != solver->n) ExecError("factorColumns: Cᵀ needs as many rows as the matrix");
+  const int n = solver->n, m = Ct->m;
+  if (S->N() != m || S->M() != m || !S->IsVector1())
+    ExecError("factorColumns: S must be a whole m × m array for the m columns of Cᵀ");
+  if (columnBlock < 1) ExecError("factorColumns: columnBlock must be at least 1");
+  if (std::min<long>(columnBlock, m)*n > INT_MAX)  // CHOLMOD's dense blocks are indexed in int here
+    ExecError("factorColumns: a block of more than 2^31 - 1 numbers; give a smaller columnBlock");
+  const Columns forward = forwardColumns(solver, columnsOf(*Ct), m, static_cast<int>(std::min<long>(columnBlock, std::max(m, 1))));
+  const Columns scaled = scaledColumns(solver->L, forward);
+  condensed(forward, scaled, n, m, *S);
+  store(Y, n, forward);
+  store(Yhat, n, scaled);
+  return m;
+}
+
+static void init() {
+  Global.Add("factorComplete", "(", new OneOperator1_<bool, Matrice_Creuse<double>*>(factorComplete));
+  Global.Add("factorForward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorForward));
+  Global.Add("factorBackward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorBackward));
+  Global.Add("factorColumns", "(",
+             new OneOperator6_<long, Matrice_Creuse<double>*, Matrice_Creuse<double>*, Matrice_Creuse<double>*,
+                               Matrice_Creuse<double>*, KNM<double>*, long>(factorColumns));
+}
+
+LOADFUNC(init)
