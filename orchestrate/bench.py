@@ -20,8 +20,10 @@ reference bounds what the reference's own error can do to the figures; the repor
 it is four times below the smallest error reported.
 
 Per point (the fastest of REPEATS runs when a run takes under REPEAT_BELOW seconds): wall time
-split into start-up, meshing (warm cache), set-up, contact columns (made in the loop as nodes
-first become active, run.json contactColumnSeconds), the rest of the loop and output, the
+split into start-up, meshing (warm cache), set-up (with the condensation on the factor, when the
+scene's solver makes it), contact columns (the dense ones of condensation = columns, made in the
+loop as nodes first become active, run.json contactColumnSeconds), the rest of the loop and
+output, the
 overhead ratio (time per step, columns aside, over the back-substitutions a step cannot avoid,
 measured in the same process; also over the steps after the first, which does once what the
 others do not: bdf2's semi-implicit start, the first active sets), peak memory

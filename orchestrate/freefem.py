@@ -136,7 +136,7 @@ def freefem_env() -> dict[str, str]:
     env.setdefault("FF_VERBOSITY", "0")
     # CHOLMOD's factorizations run OpenMP regions; without a limit they cost this machine ~1.8x
     # the wall time of a factorization in context switches (docs/freefem-facts.md); same results
-    env.setdefault("OMP_THREAD_LIMIT", "1")
+    env["OMP_THREAD_LIMIT"] = env.get("OMP_THREAD_LIMIT") or "1"  # as bin/ff's ${OMP_THREAD_LIMIT:-1}
     return env
 
 

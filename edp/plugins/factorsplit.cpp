@@ -6,12 +6,13 @@
 // Ŷ = D⁻¹ Y, S = C K⁻¹ Cᵀ = Yᵀ Ŷ, C K⁻¹ F = Yᵀ forward(F) and K⁻¹(F − Cᵀλ) =
 // backward(forward(F) − Ŷ λ): a step costs one solve, and Y is sparse (L⁻¹ of a column with a
 // few nonzeros reaches only the rows of its elimination-tree path), where K⁻¹Cᵀ is dense.
-//   factorComplete(K)                           false when CHOLMOD stopped at a pivot that was not
+//   factorComplete(K)                           false when CHOLMOD's factor has a pivot that is not
 //                                               positive (K not SPD in double precision); true
-//                                               for a complete factor or another solver
+//                                               for a positive factor or another solver
 //   factorForward(K, x), factorBackward(K, x)   in place, x a real[int] of K's size
 //   factorColumns(K, Ct, Y, Yhat, S, block)     Y, Yhat (matrices) and S (real[int,int]) from the
 //                                               sparse n × m Cᵀ, block columns per solve
+//   addTransposedProduct(Y, z, y), subtractProduct(Yhat, lambda, u)   y += Yᵀz, u −= Ŷλ
 // Needs FreeFEM's CHOLMOD solver object (VirtualSolverSparseSuite.hpp, with the SuiteSparse
 // headers of Debian's libsuitesparse-dev). Compiled by `make setup` (bin/plugins), loaded by
 // `load "factorsplit"` from FF_LOADPATH.
@@ -26,33 +27,59 @@
 
 typedef VirtualSolverCHOLMOD<int, double> Cholmod;
 
-static Cholmod* factorOf(Matrice_Creuse<double>* const& matrix, const char* who) {
+static Cholmod* solverOf(Matrice_Creuse<double>* const& matrix) {
   VirtualMatrix<int, double>* A = matrix->A;
   Cholmod* solver = A && A->WithSolver() ? dynamic_cast<Cholmod*>(A->vsolver) : 0;
+  // FreeFEM's class as these headers lay it out: a factor that does not read back as this
+  // matrix's would mean other SuiteSparse headers than FreeFem++ was built with
+  if (solver && solver->L && (solver->L->n != static_cast<size_t>(solver->n) || solver->L->itype != CHOLMOD_INT
+                              || solver->L->xtype != CHOLMOD_REAL || solver->L->dtype != CHOLMOD_DOUBLE))
+    ExecError("factorsplit: CHOLMOD's factor does not read back as FreeFEM's: rebuild the plugin (make setup)");
+  return solver;
+}
+
+// Whether CHOLMOD's factorization is complete with positive pivots: its supernodal LLᵀ stops at
+// the first pivot ≤ 0 (L->minor < n); its simplicial LDLᵀ stops only at a zero one, so D is read.
+static bool positiveFactor(const cholmod_factor* L) {
+  if (L->minor < L->n) return false;
+  if (L->is_ll || L->is_super) return true;
+  const int* p = static_cast<int*>(L->p);
+  const double* x = static_cast<double*>(L->x);
+  for (size_t j = 0; j < L->n; j++)
+    if (!(x[p[j]] > 0)) return false;
+  return true;
+}
+
+static Cholmod* factorOf(Matrice_Creuse<double>* const& matrix, const char* who) {
+  Cholmod* solver = solverOf(matrix);
   if (!solver) ExecError(std::string(who) + ": the matrix has no CHOLMOD solver (set(A, solver = \"CHOLMOD\"))");
-  if (!solver->L || solver->L->minor < solver->L->n)
+  if (!solver->L || !positiveFactor(solver->L))
     ExecError(std::string(who) + ": the matrix is not factorized, or not positive definite (solve with it once first)");
   return solver;
 }
 
-// X = steps applied in turn to the n × columns block at x (column-major), in place.
+// X = steps applied in turn to the n × columns block at x (column-major), in place. The steps
+// alternate between x and a work block kept from call to call (a step's two halves then copy
+// nothing).
 static void apply(Cholmod* solver, std::initializer_list<int> steps, double* x, int columns) {
-  cholmod_dense in, out, *result = &out;
-  std::vector<double> work(static_cast<size_t>(solver->n)*columns);
+  static std::vector<double> work;
+  work.resize(std::max(work.size(), static_cast<size_t>(solver->n)*columns));
+  double *from = x, *to = work.data();
   for (int system : steps) {
-    solver->set_cholmod_dense(in, x, columns);
-    solver->set_cholmod_dense(out, work.data(), columns);
+    cholmod_dense in, out, *result = &out;
+    solver->set_cholmod_dense(in, from, columns);
+    solver->set_cholmod_dense(out, to, columns);
     if (!cholmod_solve2(system, solver->L, &in, NULL, &result, NULL, &solver->Ywork, &solver->Ework, &solver->c)
         || result != &out)
       ExecError("factorsplit: CHOLMOD's solve failed");
-    std::copy(work.begin(), work.end(), x);
+    std::swap(from, to);
   }
+  if (from != x) std::copy(from, from + static_cast<size_t>(solver->n)*columns, x);
 }
 
 static bool factorComplete(Matrice_Creuse<double>* const& matrix) {
-  VirtualMatrix<int, double>* A = matrix->A;
-  Cholmod* solver = A && A->WithSolver() ? dynamic_cast<Cholmod*>(A->vsolver) : 0;
-  return !solver || !solver->L || solver->L->minor == solver->L->n;
+  Cholmod* solver = solverOf(matrix);
+  return !solver || !solver->L || positiveFactor(solver->L);
 }
 
 static Cholmod* sized(Matrice_Creuse<double>* const& matrix, KN<double>* const& x, const char* who) {
@@ -147,6 +174,12 @@ struct Supernodes {
   }
 };
 
+static void endColumn(Columns& Y) {
+  if (Y.row.size() > static_cast<size_t>(INT_MAX))  // FreeFEM's sparse matrices count in int
+    ExecError("factorColumns: L⁻¹PCᵀ has more than 2^31 - 1 nonzeros");
+  Y.start.push_back(static_cast<int>(Y.row.size()));
+}
+
 // Y = L⁻¹ P Cᵀ in blocks of `block` columns, each column's exact zeros left out.
 static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int block) {
   const int n = solver->n;
@@ -164,7 +197,7 @@ static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int bloc
       for (int j = 0; j < size; j++) {
         for (int r = 0; r < n; r++)
           if (X[static_cast<size_t>(j)*n + r] != 0) { Y.row.push_back(r); Y.value.push_back(X[static_cast<size_t>(j)*n + r]); }
-        Y.start.push_back(static_cast<int>(Y.row.size()));
+        endColumn(Y);
       }
     }
     return Y;
@@ -191,7 +224,7 @@ static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int bloc
       for (int s : path)
         for (int r = super[s]; r < super[s + 1]; r++)
           if (column[r] != 0) { Y.row.push_back(r); Y.value.push_back(column[r]); column[r] = 0; }
-      Y.start.push_back(static_cast<int>(Y.row.size()));
+      endColumn(Y);
     }
     for (int s : path) marked[s] = 0;
   }
@@ -260,10 +293,54 @@ static long factorColumns(Matrice_Creuse<double>* const& matrix, Matrice_Creuse<
   return m;
 }
 
+// The products of a step with Y and Ŷ, over the stored entries in any order (FreeFEM's own
+// product with a matrix it made by insertion took twice the time of the dense column sum it
+// replaces; docs/model-choices.md, "Condensed on the factor").
+static HashMatrix<int, double>& entriesOf(Matrice_Creuse<double>* const& matrix, long rows, long columns, const char* who) {
+  HashMatrix<int, double>* A = matrix->pHM();
+  if (!A || A->n != rows || A->m != columns || A->half || A->fortran)
+    ExecError(std::string(who) + ": the matrix is not the n × m one factorColumns made for these vectors");
+  return *A;
+}
+
+// y += Aᵀ z. factorColumns stores A column by column: each run of one column's entries is a dot
+// product, summed in four partial sums (one sum would wait on its last addition at every entry).
+static long addTransposedProduct(Matrice_Creuse<double>* const& matrix, KN<double>* const& z, KN<double>* const& y) {
+  const HashMatrix<int, double>& A = entriesOf(matrix, z->N(), y->N(), "addTransposedProduct");
+  const double *zz = &(*z)[0], *a = A.aij;
+  const int *row = A.i, *column = A.j;
+  double* yy = &(*y)[0];
+  for (size_t k = 0; k < A.nnz;) {
+    const int c = column[k];
+    size_t end = k;
+    while (end < A.nnz && column[end] == c) end++;
+    double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+    for (; k + 4 <= end; k += 4) {
+      s0 += a[k]*zz[row[k]]; s1 += a[k + 1]*zz[row[k + 1]];
+      s2 += a[k + 2]*zz[row[k + 2]]; s3 += a[k + 3]*zz[row[k + 3]];
+    }
+    for (; k < end; k++) s0 += a[k]*zz[row[k]];
+    yy[c] += (s0 + s1) + (s2 + s3);
+  }
+  return 0;
+}
+
+// u −= A λ, the columns of λ_j = 0 passed over
+static long subtractProduct(Matrice_Creuse<double>* const& matrix, KN<double>* const& lambda, KN<double>* const& u) {
+  const HashMatrix<int, double>& A = entriesOf(matrix, u->N(), lambda->N(), "subtractProduct");
+  const double* l = &(*lambda)[0];
+  double* uu = &(*u)[0];
+  for (size_t k = 0; k < A.nnz; k++)
+    if (l[A.j[k]] != 0) uu[A.i[k]] -= A.aij[k]*l[A.j[k]];
+  return 0;
+}
+
 static void init() {
   Global.Add("factorComplete", "(", new OneOperator1_<bool, Matrice_Creuse<double>*>(factorComplete));
   Global.Add("factorForward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorForward));
   Global.Add("factorBackward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorBackward));
+  Global.Add("addTransposedProduct", "(", new OneOperator3_<long, Matrice_Creuse<double>*, KN<double>*, KN<double>*>(addTransposedProduct));
+  Global.Add("subtractProduct", "(", new OneOperator3_<long, Matrice_Creuse<double>*, KN<double>*, KN<double>*>(subtractProduct));
   Global.Add("factorColumns", "(",
              new OneOperator6_<long, Matrice_Creuse<double>*, Matrice_Creuse<double>*, Matrice_Creuse<double>*,
                                Matrice_Creuse<double>*, KNM<double>*, long>(factorColumns));
