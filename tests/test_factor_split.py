@@ -17,7 +17,7 @@ from test_restart import DRIVER, killed_driver, rows, same_results  # noqa: E402
 
 from orchestrate.freefem import MAIN, REPO, run_script  # noqa: E402
 from orchestrate.results import STATE_ARRAYS, read_state  # noqa: E402
-from orchestrate.runner import run  # noqa: E402
+from orchestrate.runner import SolverError, run  # noqa: E402
 from orchestrate.scene import Scene, SceneError  # noqa: E402
 
 # The P1 elasticity matrix of a square clamped on its left side; Cᵀ: the y-dofs of the bottom
@@ -196,3 +196,14 @@ def test_a_body_matrix_cholmod_finds_not_positive_definite_stops_the_run(tmp_pat
     done = run_script(MAIN, ["-eta2", "1e30", "-N", "20", "-outTimes", "none", "-out", tmp_path / "run"])
     assert done.returncode == 3
     assert "the matrix K of body 2 is not positive definite in double precision" in done.error_line
+
+
+def test_a_contact_line_without_a_constrained_node_is_refused(tmp_path):
+    # Body 1 clamped on Γ_C too: no node carries a constraint (it used to stop on an assertion
+    # of FreeFEM's while the contact operator was assembled, exit 6)
+    scene = tmp_path / "clamped.toml"
+    scene.write_text((REPO / "scenes" / "paper.toml").read_text() + '\n[[body1.boundary]]\ntype = "clamped"\nlabel = 1\n')
+    for condensation in ("columns", "factor"):
+        with pytest.raises(SolverError, match="no node of Gamma_C carries a contact constraint"):
+            run(scene, tmp_path / condensation, {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20,
+                                                 "solver.condensation": condensation, "output.images": False})
