@@ -1,8 +1,8 @@
 """Launching FreeFem++ with the project's plugin path.
 
 Debian's /etc/freefem++.pref points at a plugin folder that does not exist; the plugins
-(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++, the project's own (blocksolve,
-built by `make setup`) in edp/plugins. FF_LOADPATH names both for any working folder;
+(iovtk, gmsh, msh3, lapack, shell) are in /usr/lib/freefem++, the project's own (factorsplit,
+blocksolve, built by `make setup`) in edp/plugins. FF_LOADPATH names both for any working folder;
 FF_VERBOSITY=0 keeps FreeFEM from echoing the script, OMP_THREAD_LIMIT=1 makes CHOLMOD's
 factorizations faster (a user's own value is kept). The scripts include their
 libraries by paths relative to their own folder, so no include path is needed.

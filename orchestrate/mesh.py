@@ -376,8 +376,8 @@ def estimated_memory(nodes: int, constraints: int, column_budget: float, column_
     the factor, whose L⁻¹PCᵀ is sparse), plus a block of
     `column_block` of them while it is solved, three times over (right-hand sides, solution and
     the solver's work space; 121 MB measured for 147 MB so estimated, at 95 614 nodes and 32). The
-    condensation on the factor holds one such block and its sparse L⁻¹PCᵀ: at 1 641 986 nodes its
-    set-up peaked at 13.05e9 bytes, under the per-node term's 13.14e9 (results/scale)."""
+    condensation on the factor holds one such block and its sparse L⁻¹PCᵀ: at 1 641 986 nodes the
+    run peaked at 13.40e9 bytes, under the 15.66e9 estimated with a block of 32 (results/scale)."""
     columns = 16 * nodes * constraints
     block = 3 * 16 * nodes * min(column_block, constraints)
     return nodes * BYTES_PER_NODE + (columns if columns <= column_budget else 0) + block
