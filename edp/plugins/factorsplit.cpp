@@ -18,6 +18,7 @@
 // `load "factorsplit"` from FF_LOADPATH.
 #include <algorithm>
 #include <climits>
+#include <memory>
 #include <vector>
 #define HAVE_LIBUMFPACK 1
 #define HAVE_SUITESPARSE_UMFPACK_H 1
@@ -180,34 +181,20 @@ static void endColumn(Columns& Y) {
   Y.start.push_back(static_cast<int>(Y.row.size()));
 }
 
-// Y = L⁻¹ P Cᵀ in blocks of `block` columns, each column's exact zeros left out.
+// Y = L⁻¹ P Cᵀ in blocks of `block` columns, each column's exact zeros left out. Supernodal:
+// the solve of the blocks' paths above, and only their columns' rows read; simplicial (small
+// matrices): CHOLMOD's dense solve, every row read.
 static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int block) {
   const int n = solver->n;
   const cholmod_factor* L = solver->L;
-  Columns Y;
-  Y.start.push_back(0);
-  std::vector<double> X(static_cast<size_t>(n)*block, 0.);
-  if (!L->is_super) {  // simplicial (small matrices): CHOLMOD's dense solve of the block
-    for (int first = 0; first < m; first += block) {
-      const int size = std::min(block, m - first);
-      std::fill(X.begin(), X.end(), 0.);
-      for (int j = 0; j < size; j++)
-        for (int k = C.start[first + j]; k < C.start[first + j + 1]; k++) X[static_cast<size_t>(j)*n + C.row[k]] += C.value[k];
-      apply(solver, {CHOLMOD_P, CHOLMOD_L}, X.data(), size);
-      for (int j = 0; j < size; j++) {
-        for (int r = 0; r < n; r++)
-          if (X[static_cast<size_t>(j)*n + r] != 0) { Y.row.push_back(r); Y.value.push_back(X[static_cast<size_t>(j)*n + r]); }
-        endColumn(Y);
-      }
-    }
-    return Y;
-  }
-  const Supernodes tree(L);
   const int* perm = static_cast<int*>(L->Perm);
   std::vector<int> inverse(n);  // P b: (P b)[k] = b[perm[k]]
   for (int k = 0; k < n; k++) inverse[perm ? perm[k] : k] = k;
-  std::vector<char> marked(L->nsuper, 0);
-  const int* super = static_cast<int*>(L->super);
+  const std::unique_ptr<const Supernodes> tree(L->is_super ? new Supernodes(L) : 0);
+  std::vector<char> marked(L->is_super ? L->nsuper : 0, 0);
+  Columns Y;
+  Y.start.push_back(0);
+  std::vector<double> X(static_cast<size_t>(n)*block, 0.);  // zero again after each block
   for (int first = 0; first < m; first += block) {
     const int size = std::min(block, m - first);
     std::vector<int> path;
@@ -215,18 +202,26 @@ static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int bloc
       for (int k = C.start[first + j]; k < C.start[first + j + 1]; k++) {
         const int row = inverse[C.row[k]];
         X[static_cast<size_t>(j)*n + row] += C.value[k];
-        for (int s = tree.ofColumn[row]; s >= 0 && !marked[s]; s = tree.parent[s]) { marked[s] = 1; path.push_back(s); }
+        if (tree)
+          for (int s = tree->ofColumn[row]; s >= 0 && !marked[s]; s = tree->parent[s]) { marked[s] = 1; path.push_back(s); }
       }
-    std::sort(path.begin(), path.end());
-    tree.solve(X.data(), size, path);
+    std::vector<std::pair<int, int>> ranges;  // the rows the solution can be nonzero in: [from, to)
+    if (tree) {
+      std::sort(path.begin(), path.end());
+      tree->solve(X.data(), size, path);
+      const int* super = static_cast<int*>(L->super);
+      for (int s : path) { ranges.push_back(std::make_pair(super[s], super[s + 1])); marked[s] = 0; }
+    } else {
+      apply(solver, {CHOLMOD_L}, X.data(), size);
+      ranges.push_back(std::make_pair(0, n));
+    }
     for (int j = 0; j < size; j++) {
       double* column = X.data() + static_cast<size_t>(j)*n;
-      for (int s : path)
-        for (int r = super[s]; r < super[s + 1]; r++)
+      for (const auto& range : ranges)
+        for (int r = range.first; r < range.second; r++)
           if (column[r] != 0) { Y.row.push_back(r); Y.value.push_back(column[r]); column[r] = 0; }
       endColumn(Y);
     }
-    for (int s : path) marked[s] = 0;
   }
   return Y;
 }
