@@ -33,7 +33,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 # The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once;
-# factorsplit, the halves of CHOLMOD's solves), compiled
+# factorsplit, the halves of CHOLMOD's solves; strainoperators, a body's strain operators), compiled
 # unless built from their source as it is for the FreeFem++ installed (bin/plugins).
 plugins: system-packages
 	bin/plugins build

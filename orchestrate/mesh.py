@@ -90,54 +90,92 @@ def forget_whole_files() -> None:
 
 
 def parse_msh(path: Path) -> MeshInfo:
+    """The sections are parsed whole by numpy (a line at a time, a mesh of 10⁵ triangles took 0.3 s)."""
     def fault(what: str) -> MeshError:
         return MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {what} "
                          "(cut short by a full disk or a file-size limit? mesh it again)")
 
     try:
-        lines = path.read_bytes().split(b"\n")
+        data = path.read_bytes()
     except OSError as error:
         raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
-    position = {line.strip(): index for index, line in enumerate(lines) if line.startswith(b"$")}
-    if len(lines) < 2 or lines[0].strip() != b"$MeshFormat" or not lines[1].startswith(b"2.2 "):
+    head = data[:256].split(b"\n", 2)
+    if len(head) < 2 or head[0].strip() != b"$MeshFormat" or not head[1].startswith(b"2.2 "):
         raise fault("it does not start with $MeshFormat 2.2")
+    at = {}
     for section in (b"$Nodes", b"$EndNodes", b"$Elements", b"$EndElements"):
-        if section not in position:
+        at[section] = section_line(data, section)
+        if at[section] is None:
             raise fault(f"no {section.decode()} line")
+    nodes, node_block = counted_block(data, at[b"$Nodes"], at[b"$EndNodes"], fault)
+    elements, element_block = counted_block(data, at[b"$Elements"], at[b"$EndElements"], fault)
+    node_lines, element_lines = node_block.count(b"\n"), element_block.count(b"\n")
+    if node_lines != nodes or element_lines != elements:
+        raise fault(f"{node_lines} of {nodes} nodes and {element_lines} of {elements} elements")
     try:
-        nodes = int(lines[position[b"$Nodes"] + 1])
-        elements = int(lines[position[b"$Elements"] + 1])
-    except ValueError:
-        raise fault("a section count is not a number") from None
-    node_lines = lines[position[b"$Nodes"] + 2: position[b"$EndNodes"]]
-    element_lines = lines[position[b"$Elements"] + 2: position[b"$EndElements"]]
-    if len(node_lines) != nodes or len(element_lines) != elements:
-        raise fault(f"{len(node_lines)} of {nodes} nodes and {len(element_lines)} of {elements} elements")
-    try:
-        coordinates = np.array(b" ".join(node_lines).split(), dtype=float)
+        coordinates = np.fromstring(node_block, dtype=float, sep=" ") if nodes else np.zeros(0)
     except ValueError:
         raise fault("a node line that is not numbers") from None
     if coordinates.size != 4 * nodes or not np.isfinite(coordinates).all():
         raise fault("a node line without 3 finite coordinates")
-    segments, corners = {}, []
-    for line in element_lines:
-        fields = line.split()
-        if len(fields) < 4:
-            raise fault("an element line cut short")
-        if fields[1] == b"2":
-            corners.append(fields[-3:])
-        elif fields[1] == b"1":
-            tag = int(fields[3])
-            segments[tag] = segments.get(tag, 0) + 1
+    try:
+        fields = np.fromstring(element_block, dtype=np.int64, sep=" ") if elements else np.zeros(0, dtype=np.int64)
+    except ValueError:
+        raise fault("an element line that is not integers") from None
+    counts = fields_per_line(element_block)
+    if counts.size != elements or (counts < 4).any():
+        raise fault("an element line cut short")
+    start = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.int64)
+    kind = fields[start + 1]
+    tags, per_tag = np.unique(fields[start[kind == 1] + 3], return_counts=True)
+    triangle_end = (start + counts)[kind == 2]
+    corners = np.stack([fields[triangle_end - 3 + c] for c in range(3)], axis=1)
     table = coordinates.reshape(nodes, 4)
     order = np.argsort(table[:, 0])
-    try:
-        where = order[np.searchsorted(table[order, 0], np.array(corners, dtype=float).reshape(-1, 3))]
-    except (ValueError, IndexError):
-        raise fault("a triangle whose nodes are not numbers of the $Nodes section") from None
+    where = order[np.minimum(np.searchsorted(table[order, 0], corners), max(nodes - 1, 0))] if nodes else corners
+    if corners.size and (not nodes or (table[where, 0] != corners).any()):
+        raise fault("a triangle whose nodes are not numbers of the $Nodes section")
     a, b, c = (table[where[:, j], 1:3] for j in range(3))
     areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    return MeshInfo(nodes, len(corners), segments, float(areas.min()) if len(corners) else math.inf)
+    return MeshInfo(nodes, len(corners), dict(zip(tags.tolist(), per_tag.tolist())),
+                    float(areas.min()) if len(corners) else math.inf)
+
+
+def section_line(data: bytes, name: bytes) -> tuple[int, int] | None:
+    """Where the first line that holds only name (and blanks) starts and ends (its newline)."""
+    at = data.find(b"\n" + name)
+    while at >= 0:
+        end = data.find(b"\n", at + 1)
+        end = len(data) if end < 0 else end
+        if not data[at + 1 + len(name): end].strip():
+            return at + 1, end
+        at = data.find(b"\n" + name, at + 1)
+    return None
+
+
+def counted_block(data: bytes, opening: tuple[int, int], closing: tuple[int, int], fault) -> tuple[int, bytes]:
+    """A section's count (the line after its opening line) and the lines from there to its closing line."""
+    count_end = data.find(b"\n", opening[1] + 1)
+    if count_end < 0 or closing[0] <= count_end:
+        raise fault("a section closed before its lines")
+    try:
+        count = int(data[opening[1] + 1: count_end])
+    except ValueError:
+        raise fault("a section count is not a number") from None
+    return count, data[count_end + 1: closing[0]]
+
+
+def fields_per_line(block: bytes) -> np.ndarray:
+    """How many whitespace-separated fields each line of block (every line ended by a newline) holds."""
+    text = np.frombuffer(block, dtype=np.uint8)
+    if not text.size:
+        return np.zeros(0, dtype=np.int64)
+    blank = text <= 32
+    starts = np.flatnonzero(blank[:-1] & ~blank[1:]) + 1
+    if not blank[0]:
+        starts = np.concatenate(([0], starts))
+    before = np.searchsorted(starts, np.flatnonzero(text == 10))
+    return np.diff(np.concatenate(([0], before)))
 
 
 # FreeFEM's gmshload stops ("bug : mes < 1e-8 !", exit 1) at a triangle of smaller area in an ASCII

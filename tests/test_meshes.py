@@ -189,3 +189,51 @@ def test_a_mesh_below_gmshloads_area_limit_goes_to_the_driver_in_freefems_format
     path.write_text("\n".join(lines) + "\n")
     hand_over(path, read_msh(path), tmp_path / "moved.msh")
     assert len(list(cache.glob("*.mesh"))) == 2 and (tmp_path / "moved.msh").read_bytes() != direct
+
+
+def meshio_facts(path):
+    """Node and triangle counts, boundary segments per physical tag and the smallest triangle area,
+    as meshio (another reader of the format) sees the file."""
+    read = meshio.read(path, file_format="gmsh")
+    segments = {}
+    for block, tags in zip(read.cells, read.cell_data["gmsh:physical"]):
+        if block.type == "line":
+            for tag, count in zip(*np.unique(tags, return_counts=True)):
+                segments[int(tag)] = segments.get(int(tag), 0) + int(count)
+    a, b, c = (read.points[read.cells_dict["triangle"][:, j], :2] for j in range(3))
+    areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    return len(read.points), len(areas), segments, areas.min()
+
+
+@pytest.mark.parametrize("name", ["paper_body1-n24.msh", "paper_body2-n32.msh"])
+def test_a_mesh_file_is_read_as_another_reader_reads_it_whatever_its_blanks(tmp_path, name):
+    """read_msh parses whole sections at once: its counts must be meshio's, also for the same file
+    written with tabs, runs of spaces and CRLF line ends, which the format allows."""
+    from orchestrate.mesh import parse_msh
+
+    source = REPO / "meshes" / name
+    nodes, triangles, segments, smallest = meshio_facts(source)
+    spaced = tmp_path / "spaced.msh"
+    spaced.write_bytes(source.read_bytes().replace(b" ", b" \t  ").replace(b"\n", b"  \r\n"))
+    for path in (source, spaced):
+        info = parse_msh(path)
+        assert (info.nodes, info.triangles, info.segments) == (nodes, triangles, segments)
+        assert info.smallest_area == pytest.approx(smallest, rel=1e-12)
+
+
+@pytest.mark.parametrize("fault, damage", [
+    ("not integers", lambda fields: fields[:2] + ["x"] + fields[3:]),
+    ("cut short", lambda fields: fields[:3]),
+    ("not numbers of the \\$Nodes section", lambda fields: fields[:-1] + ["999999"]),
+])
+def test_a_malformed_element_line_is_named(tmp_path, fault, damage):
+    from orchestrate.mesh import parse_msh
+
+    lines = (REPO / "meshes" / "paper_body1-n24.msh").read_text().splitlines()
+    at = lines.index("$Elements") + 2
+    at = next(i for i in range(at, len(lines)) if lines[i].split()[1] == "2")  # a triangle
+    lines[at] = " ".join(damage(lines[at].split()))
+    damaged = tmp_path / "damaged.msh"
+    damaged.write_text("\n".join(lines) + "\n")
+    with pytest.raises(MeshError, match=fault):
+        parse_msh(damaged)
