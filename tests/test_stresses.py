@@ -1,0 +1,84 @@
+"""The per-triangle stresses of edp/plugins/stresses.cpp (edp/lib/body.idp, bodyFigures) against the
+same formulas written as FreeFEM vector operations (the script the plugin replaced): equal to the
+bit for the Euler and the BDF2 rate, in plane stress and plane strain. And two facts of the
+formulas themselves: a uniaxial elastic state σ11 = E ε11 (ν = 0, ζ̄ = 1, no rate) has von Mises
+norm |σ11|, and a pure shear rate gives σ12 = η/k · ½γ̇12, von Mises √3 |σ12|."""
+import textwrap
+
+import pytest
+
+from orchestrate.freefem import run_script
+
+CHECK = textwrap.dedent("""
+    load "stresses"
+    int n = 257;
+    real aG = 1.7e3, bG = 2.9e3, mu = 31.3, eta = 7.7, k = 0.013;
+    int planeStrain = PLANESTRAIN, bdf2Rate = BDF2;
+    real[int] zetaBar(n), e11(n), e22(n), g12(n), o11(n), o22(n), og12(n), p11(n), p22(n), pg12(n);
+    for (int t = 0; t < n; t++) {
+      zetaBar[t] = randreal1(); e11[t] = randreal1() - 0.5; e22[t] = randreal1() - 0.5; g12[t] = randreal1() - 0.5;
+      o11[t] = randreal1() - 0.5; o22[t] = randreal1() - 0.5; og12[t] = randreal1() - 0.5;
+      p11[t] = randreal1() - 0.5; p22[t] = randreal1() - 0.5; pg12[t] = randreal1() - 0.5;
+    }
+    real[int] s11(n), s22(n), s12(n), s33(n), vm(n), el11(n), el22(n), el12(n), density(n);
+    s33 = 0;
+    real[int] material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate];
+    real largest = stresses(material, zetaBar, e11, e22, g12, o11, o22, og12, p11, p22, pg12, s11, s22, s12, s33, vm,
+                            el11, el22, el12);
+    strainDensity(e11, e22, g12, density);
+    // the script's formulas
+    real[int] d11 = e11 - o11, d22 = e22 - o22, dg12 = g12 - og12;
+    if (bdf2Rate) {
+      d11 = 1.5*e11 + (-2.)*o11; d11 += 0.5*p11;
+      d22 = 1.5*e22 + (-2.)*o22; d22 += 0.5*p22;
+      dg12 = 1.5*g12 + (-2.)*og12; dg12 += 0.5*pg12;
+    }
+    real[int] trace = e11 + e22, ze11 = zetaBar .* e11, ze22 = zetaBar .* e22, zg12 = zetaBar .* g12;
+    real[int] zeTrace = zetaBar .* trace;
+    real[int] r11 = aG*zeTrace + bG*ze11, r22 = aG*zeTrace + bG*ze22, r12 = (0.5*bG)*zg12;
+    real[int] rateTrace = d11 + d22, viscous11 = (mu/k)*rateTrace + (eta/k)*d11;
+    real[int] viscous22 = (mu/k)*rateTrace + (eta/k)*d22;
+    real[int] t11 = viscous11 + r11, t22 = viscous22 + r22, t12 = r12 + (0.5*eta/k)*dg12, t33(n);
+    t33 = 0;
+    real[int] square11 = t11 .* t11, square22 = t22 .* t22, cross = t11 .* t22, square12 = t12 .* t12;
+    real[int] tvm = square11 + square22;
+    tvm -= cross;
+    tvm = tvm + 3*square12;
+    if (planeStrain) {
+      t33 = (mu/k)*rateTrace + aG*zeTrace;
+      real[int] inPlane = t11 + t22, square33 = t33 .* t33, cross33 = t33 .* inPlane;
+      tvm += square33;
+      tvm -= cross33;
+    }
+    real[int] q11 = e11 .* e11, q22 = e22 .* e22, q12 = g12 .* g12, tdensity = q11 + q22;
+    tdensity = tdensity + 0.5*q12;
+    real apart = abs(largest - sqrt(tvm.max));
+    s11 -= t11; s22 -= t22; s12 -= t12; s33 -= t33; vm -= tvm; el11 -= r11; el22 -= r22; el12 -= r12; density -= tdensity;
+    real[int] each = [s11.linfty, s22.linfty, s12.linfty, s33.linfty, vm.linfty, el11.linfty, el22.linfty, el12.linfty,
+                      density.linfty];
+    apart = max(apart, each.max);
+    cout << "apart " << apart << endl;
+    // one triangle: a uniaxial elastic state (ν = 0: aG = 0, bG = E), then a pure shear rate
+    real[int] one = [1.], zero = [0.], strain = [0.002], shear = [0.004], t1(1), t2(1), t3(1), t4(1), t5(1), f1(1), f2(1), f3(1);
+    t4 = 0;
+    real[int] elastic = [0., 3000., mu, eta, k, planeStrain, 0.];
+    real uniaxial = stresses(elastic, one, strain, zero, zero, strain, zero, zero, zero, zero, zero, t1, t2, t3, t4, t5, f1, f2, f3);
+    cout << "uniaxial " << (uniaxial - 6.) << " " << t1[0] - 6. << endl;
+    real[int] viscous = [0., 3000., 0., eta, k, planeStrain, 0.];
+    real pure = stresses(viscous, one, zero, zero, shear, zero, zero, zero, zero, zero, zero, t1, t2, t3, t4, t5, f1, f2, f3);
+    cout << "shear " << (t3[0] - 0.5*eta/k*0.004 - 0.5*3000*0.004) << " " << (pure - sqrt(3.)*abs(t3[0]))/pure << endl;
+""")
+
+
+@pytest.mark.parametrize("plane_strain", [0, 1])
+@pytest.mark.parametrize("bdf2", [0, 1])
+def test_the_plugins_stresses_are_the_scripts_to_the_bit_and_obey_their_formulas(tmp_path, plane_strain, bdf2):
+    script = tmp_path / "stresses.edp"
+    script.write_text(CHECK.replace("PLANESTRAIN", str(plane_strain)).replace("BDF2", str(bdf2)))
+    done = run_script(script)
+    assert done.returncode == 0, done.stdout + done.stderr
+    facts = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in done.stdout.splitlines()
+             if line.split() and line.split()[0] in ("apart", "uniaxial", "shear")}
+    assert facts["apart"] == [0]
+    assert max(abs(v) for v in facts["uniaxial"]) <= 1e-12
+    assert abs(facts["shear"][0]) <= 1e-12 and abs(facts["shear"][1]) <= 1e-15
