@@ -125,7 +125,9 @@ def parse_msh(path: Path) -> MeshInfo:
     counts = fields_per_line(element_block)
     if counts.size != elements or (counts < 4).any():
         raise fault("an element line cut short")
-    start = np.concatenate(([0], np.cumsum(counts)[:-1])).astype(np.int64)
+    if fields.size != counts.sum():  # numpy read a lone sign with the next number, or stopped early
+        raise fault("an element line that is not integers")
+    start = (np.cumsum(counts) - counts).astype(np.int64)
     kind = fields[start + 1]
     tags, per_tag = np.unique(fields[start[kind == 1] + 3], return_counts=True)
     triangle_end = (start + counts)[kind == 2]

@@ -223,6 +223,7 @@ def test_a_mesh_file_is_read_as_another_reader_reads_it_whatever_its_blanks(tmp_
 
 @pytest.mark.parametrize("fault, damage", [
     ("not integers", lambda fields: fields[:2] + ["x"] + fields[3:]),
+    ("not integers", lambda fields: fields[:-1] + ["-", fields[-1]]),  # numpy alone would read "- 7" as -7
     ("cut short", lambda fields: fields[:3]),
     ("not numbers of the \\$Nodes section", lambda fields: fields[:-1] + ["999999"]),
 ])
@@ -237,3 +238,14 @@ def test_a_malformed_element_line_is_named(tmp_path, fault, damage):
     damaged.write_text("\n".join(lines) + "\n")
     with pytest.raises(MeshError, match=fault):
         parse_msh(damaged)
+
+
+def test_a_mesh_file_without_elements_reads_as_no_triangles(tmp_path):
+    from orchestrate.mesh import parse_msh
+
+    text = (REPO / "meshes" / "paper_body1-n24.msh").read_text()
+    head, _, _ = text.partition("$Elements")
+    empty = tmp_path / "empty.msh"
+    empty.write_text(head + "$Elements\n0\n$EndElements\n")
+    info = parse_msh(empty)
+    assert (info.triangles, info.segments) == (0, {}) and info.nodes == meshio_facts(REPO / "meshes" / "paper_body1-n24.msh")[0]

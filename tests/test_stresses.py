@@ -2,7 +2,8 @@
 same formulas written as FreeFEM vector operations (the script the plugin replaced): equal to the
 bit for the Euler and the BDF2 rate, in plane stress and plane strain. And two facts of the
 formulas themselves: a uniaxial elastic state σ11 = E ε11 (ν = 0, ζ̄ = 1, no rate) has von Mises
-norm |σ11|, and a pure shear rate gives σ12 = η/k · ½γ̇12, von Mises √3 |σ12|."""
+norm |σ11|, and a pure shear rate gives σ12 = η/k · ½γ̇12, von Mises √3 |σ12|. The largest von
+Mises norm is FreeFEM's max of the array, also where a stress is not a number."""
 import textwrap
 
 import pytest
@@ -67,6 +68,16 @@ CHECK = textwrap.dedent("""
     real[int] viscous = [0., 3000., 0., eta, k, planeStrain, 0.];
     real pure = stresses(viscous, one, zero, zero, shear, zero, zero, zero, zero, zero, zero, t1, t2, t3, t4, t5, f1, f2, f3);
     cout << "shear " << (t3[0] - 0.5*eta/k*0.004 - 0.5*3000*0.004) << " " << (pure - sqrt(3.)*abs(t3[0]))/pure << endl;
+    // a NaN among the stresses: the largest is FreeFEM's max of the array, NaN and all
+    real nan = sqrt(-1.);
+    real[int] nanFirst = [nan, 1., 0.1], nanMiddle = [1., nan, 0.1], z3(3), o3(3), r1(3), r2(3), r3(3), r4(3), r5(3);
+    real[int] q1(3), q2(3), q3(3);
+    z3 = 0; o3 = 1; r4 = 0;
+    real[int] plain = [0., 1., 0., 0., k, planeStrain, 0.];
+    real first = stresses(plain, o3, nanFirst, z3, z3, z3, z3, z3, z3, z3, z3, r1, r2, r3, r4, r5, q1, q2, q3);
+    cout << "nanfirst " << first << " " << sqrt(r5.max) << endl;
+    real middle = stresses(plain, o3, nanMiddle, z3, z3, z3, z3, z3, z3, z3, z3, r1, r2, r3, r4, r5, q1, q2, q3);
+    cout << "nanmiddle " << middle << " " << sqrt(r5.max) << endl;
 """)
 
 
@@ -77,8 +88,10 @@ def test_the_plugins_stresses_are_the_scripts_to_the_bit_and_obey_their_formulas
     script.write_text(CHECK.replace("PLANESTRAIN", str(plane_strain)).replace("BDF2", str(bdf2)))
     done = run_script(script)
     assert done.returncode == 0, done.stdout + done.stderr
-    facts = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in done.stdout.splitlines()
-             if line.split() and line.split()[0] in ("apart", "uniaxial", "shear")}
+    printed = {line.split()[0]: line.split()[1:] for line in done.stdout.splitlines() if line.split()}
+    facts = {name: [float(v) for v in printed[name]] for name in ("apart", "uniaxial", "shear")}
+    for name in ("nanfirst", "nanmiddle"):  # as printed: the same number, or nan both
+        assert printed[name][0] == printed[name][1], printed[name]
     assert facts["apart"] == [0]
     assert max(abs(v) for v in facts["uniaxial"]) <= 1e-12
     assert abs(facts["shear"][0]) <= 1e-12 and abs(facts["shear"][1]) <= 1e-15

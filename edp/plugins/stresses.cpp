@@ -5,7 +5,9 @@
 //                         e11Old2, e22Old2, g12Old2, s11, s22, s12, s33, vmSquared,
 //                         elastic11, elastic22, elastic12)
 //   material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate]
-//   strainDensity(e11, e22, g12, density)   ε:ε = ε11² + ε22² + ½γ12² per triangle
+//   strainDensity(e11, e22, g12, density)   ε:ε = ε11² + ε22² + ½γ12² per triangle: Σ_T |T| ε_T:ε_T
+//                                           is the square of a body's part of ‖u‖_V, and ε:ε of
+//                                           uⁿ⁻¹ (or u*) drives the damage source
 // From the strains of uⁿ (e11 = ε11, e22 = ε22, g12 = γ12 = 2ε12, per triangle), those of uⁿ⁻¹
 // and uⁿ⁻², and ζ̄ⁿ (ζ averaged on the triangle):
 //   k·ε(u̇ⁿ) = d  = ε(uⁿ) − ε(uⁿ⁻¹)                      (Euler steps; bdf2's first)
@@ -18,6 +20,7 @@
 // computed with the operations, in the order, of the script it replaces, so the results are its
 // own to the bit (tests/test_unchanged.py; no fused multiply-add: ff-c++ builds for generic x86-64).
 #include <cmath>
+#include <limits>
 #include "ff++.hpp"
 #include "AFunction_ext.hpp"
 
@@ -51,7 +54,7 @@ AnyType Stresses::operator()(Stack stack) const {
   const double muk = mu/k, etak = eta/k, shear = 0.5*bG, shearRate = 0.5*eta/k;
   double* x[arguments];
   for (int a = zetaBar; a < arguments; a++) x[a] = &(*v[a])[0];
-  double largest = 0;
+  double largest = std::numeric_limits<double>::lowest();
   for (long t = 0; t < n; t++) {
     double d11, d22, dg12;
     if (bdf2Rate) {
@@ -77,7 +80,7 @@ AnyType Stresses::operator()(Stack stack) const {
     }
     x[elastic11][t] = el11; x[elastic22][t] = el22; x[elastic12][t] = el12;
     x[s11][t] = sxx; x[s22][t] = syy; x[s12][t] = sxy; x[vmSquared][t] = vm;
-    if (t == 0 || vm > largest) largest = vm;  // as FreeFEM's max of an array
+    largest = largest > vm ? largest : vm;  // FreeFEM's max of an array, NaN and all (RNM::Max)
   }
   return std::sqrt(largest);
 }
