@@ -96,3 +96,26 @@ def test_wall_at_reads_a_curve_in_log_log():
     points = [(e, e ** -2) for e in (0.025, 0.05, 0.1)]
     assert wall_at(points, 0.04) == pytest.approx(0.04 ** -2, rel=1e-12)
     assert wall_at(points, 0.2) is None and wall_at(points, 0.01) is None
+
+
+@pytest.mark.parametrize("steps", [1, 7])
+def test_the_timed_back_substitutions_change_no_result(tmp_path, steps):
+    """The bench's -measureSolves sets are timed inside the loop (steps 2 … N) or after it (N = 1),
+    on copies: the files are those of a run without them, and every set asked for is timed."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from conftest import solve_ok
+
+    flags = ["-N", steps, "-scheme", "semi-implicit", "-outTimes", 1, "-outFields", "state"]  # no elastic bound
+    plain = solve_ok(tmp_path / "plain", *flags)
+    timed = solve_ok(tmp_path / "timed", *flags, "-measureSolves", 5)
+    for name in (f"state_{steps:04d}.txt",):
+        assert (plain.folder / name).read_bytes() == (timed.folder / name).read_bytes()
+    strip = lambda path: [line.rsplit(",", 1)[0] for line in path.read_text().splitlines()]  # stepSeconds aside
+    assert strip(plain.folder / "history.csv") == strip(timed.folder / "history.csv")
+    facts = json.loads((timed.folder / "run.json").read_text())
+    assert facts["backsubSecondsPerStep"] > 0 and facts["backsubSets"] == 5
+    assert json.loads((plain.folder / "run.json").read_text())["backsubSecondsPerStep"] == 0
