@@ -118,29 +118,46 @@ def parse_msh(path: Path) -> MeshInfo:
         raise fault("a node line that is not numbers") from None
     if coordinates.size != 4 * nodes or not np.isfinite(coordinates).all():
         raise fault("a node line without 3 finite coordinates")
-    try:
-        fields = np.fromstring(element_block, dtype=np.int64, sep=" ") if elements else np.zeros(0, dtype=np.int64)
-    except ValueError:
-        raise fault("an element line that is not integers") from None
-    counts = fields_per_line(element_block)
-    if counts.size != elements or (counts < 4).any():
-        raise fault("an element line cut short")
-    if fields.size != counts.sum():  # numpy read a lone sign with the next number, or stopped early
-        raise fault("an element line that is not integers")
-    start = (np.cumsum(counts) - counts).astype(np.int64)
+    fields, start, counts = element_fields(element_block, elements, fault)
     kind = fields[start + 1]
     tags, per_tag = np.unique(fields[start[kind == 1] + 3], return_counts=True)
     triangle_end = (start + counts)[kind == 2]
     corners = np.stack([fields[triangle_end - 3 + c] for c in range(3)], axis=1)
     table = coordinates.reshape(nodes, 4)
-    order = np.argsort(table[:, 0])
-    where = order[np.minimum(np.searchsorted(table[order, 0], corners), max(nodes - 1, 0))] if nodes else corners
-    if corners.size and (not nodes or (table[where, 0] != corners).any()):
-        raise fault("a triangle whose nodes are not numbers of the $Nodes section")
+    where = rows_of(table[:, 0], corners, fault)
     a, b, c = (table[where[:, j], 1:3] for j in range(3))
     areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
     return MeshInfo(nodes, len(corners), dict(zip(tags.tolist(), per_tag.tolist())),
                     float(areas.min()) if len(corners) else math.inf)
+
+
+def element_fields(block: bytes, elements: int, fault) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every field of the $Elements lines as one integer array, and each line's first field and
+    field count in it."""
+    try:
+        fields = np.fromstring(block, dtype=np.int64, sep=" ") if elements else np.zeros(0, dtype=np.int64)
+    except ValueError:
+        raise fault("an element line that is not integers") from None
+    counts = fields_per_line(block)
+    if counts.size != elements or (counts < 4).any():
+        raise fault("an element line cut short")
+    if fields.size != counts.sum():  # numpy read a lone sign with the next number, or stopped early
+        raise fault("an element line that is not integers")
+    return fields, (np.cumsum(counts) - counts).astype(np.int64), counts
+
+
+def rows_of(numbers: np.ndarray, wanted: np.ndarray, fault) -> np.ndarray:
+    """The rows of the $Nodes table (node numbers `numbers`) that hold the node numbers `wanted`."""
+    if not wanted.size:
+        return wanted
+    missing = fault("a triangle whose nodes are not numbers of the $Nodes section")
+    if not numbers.size:
+        raise missing
+    order = np.argsort(numbers)
+    rows = order[np.minimum(np.searchsorted(numbers[order], wanted), numbers.size - 1)]
+    if (numbers[rows] != wanted).any():
+        raise missing
+    return rows
 
 
 def section_line(data: bytes, name: bytes) -> tuple[int, int] | None:
