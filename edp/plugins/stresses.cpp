@@ -5,6 +5,8 @@
 //                         e11Old2, e22Old2, g12Old2, s11, s22, s12, s33, vmSquared,
 //                         elastic11, elastic22, elastic12)
 //   material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate]
+//   bdf2Explicit(material, zetaStarBar, ...)   the next BDF2 step's explicit stress and ε(u*):ε(u*)
+//                                           (below)
 //   strainDensity(e11, e22, g12, density)   ε:ε = ε11² + ε22² + ½γ12² per triangle: Σ_T |T| ε_T:ε_T
 //                                           is the square of a body's part of ‖u‖_V, and ε:ε of
 //                                           uⁿ⁻¹ (or u*) drives the damage source
@@ -93,8 +95,60 @@ static long strainDensity(KN<double>* const& e11, KN<double>* const& e22, KN<dou
   return 0;
 }
 
+// The per-triangle stress of the right-hand side of a BDF2 step n + 1 ≥ 2 (docs/model.md §9), made
+// at the figures of step n from the strains of uⁿ (e11, e22, g12) and uⁿ⁻¹ (e11Old, ...) and
+// ζ̄* (zetaStarBar, the triangle mean of ζ* = 2ζⁿ − ζⁿ⁻¹ clipped to [0, 1]):
+//   σ* = A ε(4uⁿ − uⁿ⁻¹)/(2k) + (1 − ζ̄*) G ε(u*),  u* = 2uⁿ − uⁿ⁻¹,
+//   bdf2Explicit(material, zetaStarBar, e11, e22, g12, e11Old, e22Old, g12Old, x11, x22, x12, densityStar)
+//   material = [aG, bG, mu, eta, k]
+// x11, x22, x12 = σ* (the step's force is Σ_T |T| σ*_T : ε_T(v), added), and densityStar = ε(u*):ε(u*),
+// the next damage step's source. Each part as the script wrote it (its viscous and weakened parts
+// apart, in its order), then added.
+class Bdf2Explicit : public E_F0mps {
+ public:
+  typedef long Result;
+  enum { material, zetaStarBar, e11, e22, g12, e11Old, e22Old, g12Old, x11, x22, x12, densityStar, arguments };
+  Expression argument[arguments];
+  explicit Bdf2Explicit(const basicAC_F0& args) {
+    args.SetNameParam(0, 0, 0);
+    if (args.size() != arguments) CompileError("bdf2Explicit: 12 arguments (material, zetaStarBar, 6 strains, 4 results)");
+    for (int a = 0; a < arguments; a++) argument[a] = to<KN<double>*>(args[a]);
+  }
+  static ArrayOfaType typeargs() { return ArrayOfaType(atype<KN<double>*>(), true); }
+  static E_F0* f(const basicAC_F0& args) { return new Bdf2Explicit(args); }
+  operator aType() const { return atype<long>(); }
+  AnyType operator()(Stack stack) const;
+};
+
+AnyType Bdf2Explicit::operator()(Stack stack) const {
+  KN<double>* v[arguments];
+  for (int a = 0; a < arguments; a++) v[a] = GetAny<KN<double>*>((*argument[a])(stack));
+  const KN<double>& m = *v[material];
+  if (m.N() != 5) ExecError("bdf2Explicit: material = [aG, bG, mu, eta, k]");
+  const long n = v[zetaStarBar]->N();
+  for (int a = zetaStarBar; a < arguments; a++)
+    if (v[a]->N() != n) ExecError("bdf2Explicit: every per-triangle array must have one value per triangle");
+  const double aG = m[0], bG = m[1], mu = m[2], eta = m[3], k = m[4];
+  const double now = 2/k, before = -0.5/k, shearRate = 0.5*eta, shear = 0.5*bG;
+  double* x[arguments];
+  for (int a = zetaStarBar; a < arguments; a++) x[a] = &(*v[a])[0];
+  for (long t = 0; t < n; t++) {
+    const double r11 = now*x[e11][t] + before*x[e11Old][t], r22 = now*x[e22][t] + before*x[e22Old][t];
+    const double r12 = now*x[g12][t] + before*x[g12Old][t], rTrace = r11 + r22;
+    const double v11 = mu*rTrace + eta*r11, v22 = mu*rTrace + eta*r22, v12 = shearRate*r12;
+    const double s11 = 2*x[e11][t] + (-1.)*x[e11Old][t], s22 = 2*x[e22][t] + (-1.)*x[e22Old][t];
+    const double s12 = 2*x[g12][t] + (-1.)*x[g12Old][t];
+    const double w = -x[zetaStarBar][t] + 1, sTrace = s11 + s22;
+    const double w11 = aG*(w*sTrace) + bG*(w*s11), w22 = aG*(w*sTrace) + bG*(w*s22), w12 = shear*(w*s12);
+    x[x11][t] = v11 + w11; x[x22][t] = v22 + w22; x[x12][t] = v12 + w12;
+    x[densityStar][t] = (s11*s11 + s22*s22) + 0.5*(s12*s12);
+  }
+  return 0L;
+}
+
 static void init() {
   Global.Add("stresses", "(", new OneOperatorCode<Stresses>());
+  Global.Add("bdf2Explicit", "(", new OneOperatorCode<Bdf2Explicit>());
   Global.Add("strainDensity", "(", new OneOperator4_<long, KN<double>*, KN<double>*, KN<double>*, KN<double>*>(strainDensity));
 }
 
