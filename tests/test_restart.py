@@ -135,6 +135,17 @@ def test_another_expression_of_the_initial_data_is_refused_by_the_fingerprint(tm
     assert done.returncode == 3 and "initial data (their fingerprint differs)" in done.error_line, done.error_line
 
 
+def test_a_checkpoint_of_another_state_layout_is_refused(tmp_path):
+    """A checkpoint whose state lists other arrays (a driver before a change of state.idp) would be
+    read into the wrong arrays: its layout name tells it apart."""
+    folder = tmp_path / "run"
+    killed_driver(folder, 100)
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        checkpoint.write_text(checkpoint.read_text().replace("\nstate-2\n", "\nstate\n"))
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])
+    assert done.returncode == 3 and "kept another state" in done.error_line, done.error_line
+
+
 def test_a_folder_without_a_whole_checkpoint_is_refused(tmp_path):
     (tmp_path / "empty").mkdir()
     (tmp_path / "empty" / "checkpoint-a.txt").write_text("checkpoint 12\nparameters 3\n")  # cut short
