@@ -141,7 +141,7 @@ def test_a_checkpoint_of_another_state_layout_is_refused(tmp_path):
     folder = tmp_path / "run"
     killed_driver(folder, 100)
     for checkpoint in folder.glob("checkpoint-?.txt"):
-        checkpoint.write_text(checkpoint.read_text().replace("\nstate-2\n", "\nstate\n"))
+        checkpoint.write_text(checkpoint.read_text().replace("\nstate-3\n", "\nstate-2\n"))
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])
     assert done.returncode == 3 and "kept another state" in done.error_line, done.error_line
 

@@ -21,12 +21,11 @@ CHECK = textwrap.dedent("""
       o11[t] = randreal1() - 0.5; o22[t] = randreal1() - 0.5; og12[t] = randreal1() - 0.5;
       p11[t] = randreal1() - 0.5; p22[t] = randreal1() - 0.5; pg12[t] = randreal1() - 0.5;
     }
-    real[int] s11(n), s22(n), s12(n), s33(n), vm(n), el11(n), el22(n), el12(n), density(n);
+    real[int] s11(n), s22(n), s12(n), s33(n), vm(n), el11(n), el22(n), el12(n);
     s33 = 0;
-    real[int] material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate];
+    real[int] material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate, 1.];
     real largest = stresses(material, zetaBar, e11, e22, g12, o11, o22, og12, p11, p22, pg12, s11, s22, s12, s33, vm,
                             el11, el22, el12);
-    strainDensity(e11, e22, g12, density);
     // the script's formulas
     real[int] d11 = e11 - o11, d22 = e22 - o22, dg12 = g12 - og12;
     if (bdf2Rate) {
@@ -51,21 +50,18 @@ CHECK = textwrap.dedent("""
       tvm += square33;
       tvm -= cross33;
     }
-    real[int] q11 = e11 .* e11, q22 = e22 .* e22, q12 = g12 .* g12, tdensity = q11 + q22;
-    tdensity = tdensity + 0.5*q12;
     real apart = abs(largest - sqrt(tvm.max));
-    s11 -= t11; s22 -= t22; s12 -= t12; s33 -= t33; vm -= tvm; el11 -= r11; el22 -= r22; el12 -= r12; density -= tdensity;
-    real[int] each = [s11.linfty, s22.linfty, s12.linfty, s33.linfty, vm.linfty, el11.linfty, el22.linfty, el12.linfty,
-                      density.linfty];
+    s11 -= t11; s22 -= t22; s12 -= t12; s33 -= t33; vm -= tvm; el11 -= r11; el22 -= r22; el12 -= r12;
+    real[int] each = [s11.linfty, s22.linfty, s12.linfty, s33.linfty, vm.linfty, el11.linfty, el22.linfty, el12.linfty];
     apart = max(apart, each.max);
     cout << "apart " << apart << endl;
     // one triangle: a uniaxial elastic state (ν = 0: aG = 0, bG = E), then a pure shear rate
     real[int] one = [1.], zero = [0.], strain = [0.002], shear = [0.004], t1(1), t2(1), t3(1), t4(1), t5(1), f1(1), f2(1), f3(1);
     t4 = 0;
-    real[int] elastic = [0., 3000., mu, eta, k, planeStrain, 0.];
+    real[int] elastic = [0., 3000., mu, eta, k, planeStrain, 0., 1.];
     real uniaxial = stresses(elastic, one, strain, zero, zero, strain, zero, zero, zero, zero, zero, t1, t2, t3, t4, t5, f1, f2, f3);
     cout << "uniaxial " << (uniaxial - 6.) << " " << t1[0] - 6. << endl;
-    real[int] viscous = [0., 3000., 0., eta, k, planeStrain, 0.];
+    real[int] viscous = [0., 3000., 0., eta, k, planeStrain, 0., 1.];
     real pure = stresses(viscous, one, zero, zero, shear, zero, zero, zero, zero, zero, zero, t1, t2, t3, t4, t5, f1, f2, f3);
     cout << "shear " << (t3[0] - 0.5*eta/k*0.004 - 0.5*3000*0.004) << " " << (pure - sqrt(3.)*abs(t3[0]))/pure << endl;
     // a NaN among the stresses: the largest is FreeFEM's max of the array, NaN and all
@@ -73,7 +69,7 @@ CHECK = textwrap.dedent("""
     real[int] nanFirst = [nan, 1., 0.1], nanMiddle = [1., nan, 0.1], z3(3), o3(3), r1(3), r2(3), r3(3), r4(3), r5(3);
     real[int] q1(3), q2(3), q3(3);
     z3 = 0; o3 = 1; r4 = 0;
-    real[int] plain = [0., 1., 0., 0., k, planeStrain, 0.];
+    real[int] plain = [0., 1., 0., 0., k, planeStrain, 0., 1.];
     real first = stresses(plain, o3, nanFirst, z3, z3, z3, z3, z3, z3, z3, z3, r1, r2, r3, r4, r5, q1, q2, q3);
     cout << "nanfirst " << first << " " << sqrt(r5.max) << endl;
     real middle = stresses(plain, o3, nanMiddle, z3, z3, z3, z3, z3, z3, z3, z3, r1, r2, r3, r4, r5, q1, q2, q3);
@@ -117,8 +113,9 @@ BDF2_EXPLICIT = textwrap.dedent("""
     w += 1;
     real[int] sTrace = s11 + s22, ws11 = w .* s11, ws22 = w .* s22, ws12 = w .* s12, wTrace = w .* sTrace;
     real[int] w11 = aG*wTrace + bG*ws11, w22 = aG*wTrace + bG*ws22, w12 = (0.5*bG)*ws12;
-    real[int] t11 = v11 + w11, t22 = v22 + w22, t12 = v12 + w12, tdensity(n);
-    strainDensity(s11, s22, s12, tdensity);
+    real[int] t11 = v11 + w11, t22 = v22 + w22, t12 = v12 + w12;
+    real[int] q11 = s11 .* s11, q22 = s22 .* s22, q12 = s12 .* s12, tdensity = q11 + q22;  /* ε:ε, the script's grouping */
+    tdensity = tdensity + 0.5*q12;
     t11 -= x11; t22 -= x22; t12 -= x12; tdensity -= density;
     real[int] each = [t11.linfty, t22.linfty, t12.linfty, tdensity.linfty];
     cout << "apart " << each.max << endl;
@@ -146,3 +143,29 @@ def test_the_bdf2_explicit_stress_is_the_scripts_to_the_bit_and_keeps_a_state_at
     printed = {line.split()[0]: float(line.split()[1]) for line in done.stdout.splitlines() if len(line.split()) == 2}
     assert printed["apart"] == 0
     assert printed["rest"] <= 1e-13
+
+
+def test_without_fields_the_stresses_are_not_written_and_the_largest_norm_is_the_same(tmp_path):
+    """A step whose files do not hold the stresses (fields = 0) gets the same largest von Mises norm
+    (the history's) and the same next explicit stress, and leaves the stress arrays as they were."""
+    script = tmp_path / "fields.edp"
+    script.write_text(textwrap.dedent("""
+        load "stresses"
+        int n = 101;
+        real[int] z(n), e(n), f(n), g(n), s11(n), s22(n), s12(n), s33(n), vm(n), x11(n), x22(n), x12(n), y11(n), y22(n), y12(n);
+        for (int t = 0; t < n; t++) { z[t] = randreal1(); e[t] = randreal1() - 0.5; f[t] = randreal1() - 0.5; g[t] = randreal1() - 0.5; }
+        real[int] with = [1.7e3, 2.9e3, 31.3, 7.7, 0.013, 1., 0., 1.], without = [1.7e3, 2.9e3, 31.3, 7.7, 0.013, 1., 0., 0.];
+        real written = stresses(with, z, e, f, g, f, g, e, e, e, e, s11, s22, s12, s33, vm, x11, x22, x12);
+        s11 = 7; s22 = 7; s12 = 7; s33 = 7; vm = 7;
+        real kept = stresses(without, z, e, f, g, f, g, e, e, e, e, s11, s22, s12, s33, vm, y11, y22, y12);
+        real[int] untouched = [s11.max, s11.min, s22.max, s22.min, s12.max, s12.min, s33.max, s33.min, vm.max, vm.min];
+        y11 -= x11; y22 -= x22; y12 -= x12;
+        cout << "largest " << (kept - written) << endl;
+        cout << "untouched " << untouched.max << " " << untouched.min << endl;
+        cout << "explicit " << max(y11.linfty, max(y22.linfty, y12.linfty)) << endl;
+    """))
+    done = run_script(script)
+    assert done.returncode == 0, done.stdout + done.stderr
+    printed = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in done.stdout.splitlines()
+               if line.split() and line.split()[0] in ("largest", "untouched", "explicit")}
+    assert printed == {"largest": [0.0], "untouched": [7.0, 7.0], "explicit": [0.0]}

@@ -10,9 +10,15 @@
 //                                               positive (K not SPD in double precision); true
 //                                               for a positive factor or another solver
 //   factorForward(K, x), factorBackward(K, x)   in place, x a real[int] of K's size
-//   factorColumns(K, Ct, Y, Yhat, S, block)     Y, Yhat (matrices) and S (real[int,int]) from the
-//                                               sparse n × m Cᵀ, block columns per solve
-//   addTransposedProduct(Y, z, y), subtractProduct(Yhat, lambda, u)   y += Yᵀz, u −= Ŷλ
+//   int Y = factorColumns(K, Ct, S, block)      Y and Ŷ, kept here (Y names them), and S
+//                                               (real[int,int]) from the sparse n × m Cᵀ, block
+//                                               columns per solve
+//   addTransposedProduct(Y, z, y), subtractProduct(Y, lambda, u)   y += Yᵀz, u −= Ŷλ
+//   columnNonzeros(Y)                           Y's nonzeros (run.json factorColumnNonzeros1, 2)
+// The plugin keeps Y by columns (an int row index and a double a nonzero; Ŷ only where D ≠ I,
+// CHOLMOD's simplicial LDLᵀ of small matrices): a step reads all of Y once and the columns of
+// Ŷ of the active nodes once, where FreeFEM's matrices would hold both with two indices a
+// nonzero.
 // Needs FreeFEM's CHOLMOD solver object (VirtualSolverSparseSuite.hpp, with the SuiteSparse
 // headers of Debian's libsuitesparse-dev). Compiled by `make setup` (bin/plugins), loaded by
 // `load "factorsplit"` from FF_LOADPATH.
@@ -123,14 +129,6 @@ static Columns columnsOf(HashMatrix<int, double>& A) {
   return C;
 }
 
-static void store(Matrice_Creuse<double>* const& target, int n, const Columns& C) {
-  HashMatrix<int, double>* A = new HashMatrix<int, double>(n, static_cast<int>(C.start.size()) - 1, C.row.size(), 0);
-  for (size_t c = 0; c + 1 < C.start.size(); c++)
-    for (int k = C.start[c]; k < C.start[c + 1]; k++) (*A)(C.row[k], static_cast<int>(c)) = C.value[k];
-  target->A.master(A);
-  target->typemat = 0;
-}
-
 extern "C" {
 void dtrsm_(const char*, const char*, const char*, const char*, const int*, const int*, const double*, const double*,
             const int*, double*, const int*);
@@ -176,7 +174,7 @@ struct Supernodes {
 };
 
 static void endColumn(Columns& Y) {
-  if (Y.row.size() > static_cast<size_t>(INT_MAX))  // FreeFEM's sparse matrices count in int
+  if (Y.row.size() > static_cast<size_t>(INT_MAX))  // the columns' starts are int
     ExecError("factorColumns: L⁻¹PCᵀ has more than 2^31 - 1 nonzeros");
   Y.start.push_back(static_cast<int>(Y.row.size()));
 }
@@ -226,10 +224,9 @@ static Columns forwardColumns(Cholmod* solver, const Columns& C, int m, int bloc
   return Y;
 }
 
-// Ŷ = D⁻¹ Y: the diagonal of a simplicial LDLᵀ (its first entry of each column); LLᵀ: Ŷ = Y.
+// Ŷ = D⁻¹ Y of a simplicial LDLᵀ (D: the first entry of each of its columns)
 static Columns scaledColumns(const cholmod_factor* L, const Columns& Y) {
   Columns D = Y;
-  if (L->is_ll) return D;
   const int* p = static_cast<int*>(L->p);
   const double* x = static_cast<double*>(L->x);
   for (size_t k = 0; k < D.row.size(); k++) D.value[k] /= x[p[D.row[k]]];
@@ -268,8 +265,15 @@ static void condensed(const Columns& Y, const Columns& D, int n, int m, KNM<doub
   if (rows > 0) dgemm_("N", "T", &m, &m, &rows, &one, G.data(), &m, GHat.data(), &m, &one, &S(0, 0), &m);
 }
 
+// Y and Ŷ of the bodies' factors, by the number factorColumns gave (kept for the process).
+struct Condensed {
+  int n, m;
+  Columns Y;
+  std::vector<double> hat;  // Ŷ's values in Y's pattern; empty where Ŷ = Y (LLᵀ)
+};
+static std::vector<std::unique_ptr<const Condensed>> condensedKept;
+
 static long factorColumns(Matrice_Creuse<double>* const& matrix, Matrice_Creuse<double>* const& transposedC,
-                          Matrice_Creuse<double>* const& Y, Matrice_Creuse<double>* const& Yhat,
                           KNM<double>* const& S, long const& columnBlock) {
   Cholmod* solver = factorOf(matrix, "factorColumns");
   HashMatrix<int, double>* Ct = transposedC->pHM();
@@ -280,35 +284,41 @@ static long factorColumns(Matrice_Creuse<double>* const& matrix, Matrice_Creuse<
   if (columnBlock < 1) ExecError("factorColumns: columnBlock must be at least 1");
   if (std::min<long>(columnBlock, m)*n > INT_MAX)  // CHOLMOD's dense blocks are indexed in int here
     ExecError("factorColumns: a block of more than 2^31 - 1 numbers; give a smaller columnBlock");
-  const Columns forward = forwardColumns(solver, columnsOf(*Ct), m, static_cast<int>(std::min<long>(columnBlock, std::max(m, 1))));
-  const Columns scaled = scaledColumns(solver->L, forward);
-  condensed(forward, scaled, n, m, *S);
-  store(Y, n, forward);
-  store(Yhat, n, scaled);
-  return m;
+  std::unique_ptr<Condensed> kept(new Condensed{n, m, forwardColumns(solver, columnsOf(*Ct), m,
+                                                static_cast<int>(std::min<long>(columnBlock, std::max(m, 1)))), {}});
+  if (solver->L->is_ll) condensed(kept->Y, kept->Y, n, m, *S);
+  else {
+    const Columns scaled = scaledColumns(solver->L, kept->Y);
+    condensed(kept->Y, scaled, n, m, *S);
+    kept->hat = scaled.value;
+  }
+  condensedKept.emplace_back(std::move(kept));
+  return static_cast<long>(condensedKept.size()) - 1;
 }
 
-// The products of a step with Y and Ŷ, over the stored entries in any order (FreeFEM's own
-// product with a matrix it made by insertion took twice the time of the dense column sum it
-// replaces; docs/model-choices.md, "Condensed on the factor").
-static HashMatrix<int, double>& entriesOf(Matrice_Creuse<double>* const& matrix, long rows, long columns, const char* who) {
-  HashMatrix<int, double>* A = matrix->pHM();
-  if (!A || A->n != rows || A->m != columns || A->half || A->fortran)
-    ExecError(std::string(who) + ": the matrix is not the n × m one factorColumns made for these vectors");
-  return *A;
+static const Condensed& condensedOf(long Y, long rows, long columns, const char* who) {
+  if (Y < 0 || Y >= static_cast<long>(condensedKept.size()))
+    ExecError(std::string(who) + ": Y is not a number factorColumns gave");
+  const Condensed& C = *condensedKept[Y];
+  if (C.n != rows || C.m != columns) ExecError(std::string(who) + ": the vectors' sizes are not those of Y (n × m)");
+  return C;
 }
 
-// y += Aᵀ z. factorColumns stores A column by column: each run of one column's entries is a dot
-// product, summed in four partial sums (one sum would wait on its last addition at every entry).
-static long addTransposedProduct(Matrice_Creuse<double>* const& matrix, KN<double>* const& z, KN<double>* const& y) {
-  const HashMatrix<int, double>& A = entriesOf(matrix, z->N(), y->N(), "addTransposedProduct");
-  const double *zz = &(*z)[0], *a = A.aij;
-  const int *row = A.i, *column = A.j;
+static long columnNonzeros(long const& Y) {
+  if (Y < 0 || Y >= static_cast<long>(condensedKept.size())) ExecError("columnNonzeros: Y is not a number factorColumns gave");
+  return static_cast<long>(condensedKept[Y]->Y.row.size());
+}
+
+// y += Yᵀ z: each column's entries make a dot product, summed in four partial sums (one sum
+// would wait on its last addition at every entry).
+static long addTransposedProduct(long const& Y, KN<double>* const& z, KN<double>* const& y) {
+  const Condensed& C = condensedOf(Y, z->N(), y->N(), "addTransposedProduct");
+  const double *zz = &(*z)[0], *a = C.Y.value.data();
+  const int* row = C.Y.row.data();
   double* yy = &(*y)[0];
-  for (size_t k = 0; k < A.nnz;) {
-    const int c = column[k];
-    size_t end = k;
-    while (end < A.nnz && column[end] == c) end++;
+  for (int c = 0; c < C.m; c++) {
+    int k = C.Y.start[c];
+    const int end = C.Y.start[c + 1];
     double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
     for (; k + 4 <= end; k += 4) {
       s0 += a[k]*zz[row[k]]; s1 += a[k + 1]*zz[row[k + 1]];
@@ -320,13 +330,16 @@ static long addTransposedProduct(Matrice_Creuse<double>* const& matrix, KN<doubl
   return 0;
 }
 
-// u −= A λ, the columns of λ_j = 0 passed over
-static long subtractProduct(Matrice_Creuse<double>* const& matrix, KN<double>* const& lambda, KN<double>* const& u) {
-  const HashMatrix<int, double>& A = entriesOf(matrix, u->N(), lambda->N(), "subtractProduct");
+// u −= Ŷ λ, column by column, the columns of λ_j = 0 passed over (the nodes off the active set)
+static long subtractProduct(long const& Y, KN<double>* const& lambda, KN<double>* const& u) {
+  const Condensed& C = condensedOf(Y, u->N(), lambda->N(), "subtractProduct");
   const double* l = &(*lambda)[0];
+  const double* a = C.hat.empty() ? C.Y.value.data() : C.hat.data();
+  const int* row = C.Y.row.data();
   double* uu = &(*u)[0];
-  for (size_t k = 0; k < A.nnz; k++)
-    if (l[A.j[k]] != 0) uu[A.i[k]] -= A.aij[k]*l[A.j[k]];
+  for (int c = 0; c < C.m; c++)
+    if (l[c] != 0)
+      for (int k = C.Y.start[c]; k < C.Y.start[c + 1]; k++) uu[row[k]] -= a[k]*l[c];
   return 0;
 }
 
@@ -334,11 +347,11 @@ static void init() {
   Global.Add("factorComplete", "(", new OneOperator1_<bool, Matrice_Creuse<double>*>(factorComplete));
   Global.Add("factorForward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorForward));
   Global.Add("factorBackward", "(", new OneOperator2_<long, Matrice_Creuse<double>*, KN<double>*>(factorBackward));
-  Global.Add("addTransposedProduct", "(", new OneOperator3_<long, Matrice_Creuse<double>*, KN<double>*, KN<double>*>(addTransposedProduct));
-  Global.Add("subtractProduct", "(", new OneOperator3_<long, Matrice_Creuse<double>*, KN<double>*, KN<double>*>(subtractProduct));
+  Global.Add("addTransposedProduct", "(", new OneOperator3_<long, long, KN<double>*, KN<double>*>(addTransposedProduct));
+  Global.Add("subtractProduct", "(", new OneOperator3_<long, long, KN<double>*, KN<double>*>(subtractProduct));
+  Global.Add("columnNonzeros", "(", new OneOperator1_<long, long>(columnNonzeros));
   Global.Add("factorColumns", "(",
-             new OneOperator6_<long, Matrice_Creuse<double>*, Matrice_Creuse<double>*, Matrice_Creuse<double>*,
-                               Matrice_Creuse<double>*, KNM<double>*, long>(factorColumns));
+             new OneOperator4_<long, Matrice_Creuse<double>*, Matrice_Creuse<double>*, KNM<double>*, long>(factorColumns));
 }
 
 LOADFUNC(init)
