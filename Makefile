@@ -34,7 +34,7 @@ $(VENV)/.installed: pyproject.toml
 
 # The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once;
 # factorsplit, the halves of CHOLMOD's solves; strainoperators, a body's strain operators;
-# stresses, a step's per-triangle stresses), compiled
+# stresses, a step's per-triangle stresses; damagesource, the damage step's right-hand side), compiled
 # unless built from their source as it is for the FreeFem++ installed (bin/plugins).
 plugins: system-packages
 	bin/plugins build
