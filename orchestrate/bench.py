@@ -26,9 +26,12 @@ loop as nodes first become active, run.json contactColumnSeconds), the rest of t
 output, the
 overhead ratio (time per step, columns aside, over the back-substitutions a step cannot avoid,
 timed in the same run, MEASURE sets spread over its steps 2 … N so that they meet the machine's
-phases as the loop did; also over the steps after the first, which does once what the
-others do not: bdf2's semi-implicit start, the first active sets), peak memory
-after set-up and at the end (run.json), and ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V.
+phases as the loop did), and the same for the steps after the first, which does once what the
+others do not (bdf2's semi-implicit start, the first active sets): the median over the steps
+followed by sets of the step's time over a set's, with its quartiles (run.json
+overheadPairedMedian, ...: each pair timed in one phase of the machine, where the run's mean
+step and mean set drift apart by ±20 %), peak memory after set-up and at the end (run.json),
+and ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V.
 
 "How long for a given error" is then answered by a run, not only read off a curve: for each target
 error two levels of a variant bracket, the coarsest n1 between them that reaches it is searched
@@ -60,7 +63,7 @@ from orchestrate.steps import ORDER, steps_for, time_error_model
 SCHEMES = tuple(ORDER)
 FAMILIES = {"uniform": REPO / "scenes" / "paper.toml", "graded": REPO / "scenes" / "paper_graded.toml"}
 REFERENCE, CHECK = "reference", "reference check"
-MEASURE = 10  # sets of the unavoidable back-substitutions timed in each run, spread over steps 2 … N
+MEASURE = 30  # sets of the unavoidable back-substitutions timed in each run, spread over steps 2 … N
 REPEATS, REPEAT_BELOW = 3, 20.0  # this machine's timings drift by ±20 %: short runs are repeated
 FIRST_TARGET = 1e-4  # bdf2's time target at level 0, below every space error reported
 REFERENCE_TARGET = 1e-6  # the time error of the reference and of the check
@@ -108,15 +111,23 @@ def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
     columns = counts["contactColumnSeconds"]  # made in the loop, when a node first becomes active
     output = timing["solverOutputCpu"]  # the files, written in the loop
     loop = timing["solverLoopCpu"] - measured - columns - output
-    later = (loop - counts["firstStepSeconds"]) / (steps - 1) if steps > 1 else float("nan")
     return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"], "N": steps,
             "startup": solver_wall - (timing["solverTotalCpu"] - measured), "meshing": timing["meshing"],
             "setup": timing["solverSetupCpu"], "columns": columns, "loop": loop,
             "output": output, "wall": timing["meshing"] + solver_wall,
-            "overheadRatio": loop / steps / timing["backsubsPerStep"],
-            "laterOverheadRatio": later / timing["backsubsPerStep"],
+            "overheadRatio": loop / steps / timing["backsubsPerStep"], "firstStep": counts["firstStepSeconds"],
+            **later_overhead(counts),
             "setupMemoryMB": counts.get("setupPeakMemoryMB"), "peakMemoryMB": counts.get("peakMemoryMB"),
             "contactIters": float(result.history["contactIters"].mean()), "normV": float(result.history["normV"][-1])}
+
+
+def later_overhead(counts: dict) -> dict:
+    """The overhead ratio of the steps after the first: the median of the paired ratios and their
+    quartiles (NaN for a run of one step, which pairs none)."""
+    if not counts.get("overheadPairs"):
+        return {"laterOverheadRatio": float("nan"), "laterOverheadLow": float("nan"), "laterOverheadHigh": float("nan")}
+    return {"laterOverheadRatio": counts["overheadPairedMedian"], "laterOverheadLow": counts["overheadPairedLow"],
+            "laterOverheadHigh": counts["overheadPairedHigh"]}
 
 
 def fastest_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
@@ -352,7 +363,8 @@ def variants(rows: list[dict]) -> list[str]:
 
 
 COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
-           "startup", "meshing", "setup", "columns", "loop", "output", "overheadRatio", "laterOverheadRatio",
+           "startup", "meshing", "setup", "columns", "loop", "output", "firstStep", "overheadRatio", "laterOverheadRatio",
+           "laterOverheadLow", "laterOverheadHigh",
            "setupMemoryMB", "peakMemoryMB", "contactIters", "normV", "errorToReference", "errorToCheck"]
 
 

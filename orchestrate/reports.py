@@ -259,9 +259,11 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
              "them first became active); *loop* is the rest of the time loop, "
              "its files aside (*output*). *overhead* = loop / N / the back-substitutions a step cannot avoid (one "
              "per body for u, one per body for ζ), timed in the same run, in sets spread over its steps 2 … N; "
-             "*after step 1* the same over steps "
-             "2 … N, without what the first step does once (bdf2's semi-implicit start, a fixed point of "
-             "contact solves; the first active sets). K and the damage matrices are factorized in the set-up. "
+             "*after step 1* the same for steps 2 … N, without what the first step does once (bdf2's "
+             "semi-implicit start, a fixed point of contact solves; the first active sets): the median, over the "
+             "steps followed by sets, of the step's time over a set's, each pair timed in one phase of the "
+             "machine (its quartiles in brackets; the run's mean step and mean set, timed at other moments, "
+             "drift apart by ±20 % here). K and the damage matrices are factorized in the set-up. "
              "*memory*: FreeFem++'s peak resident memory after set-up and at the end of the run (MB). "
              "*error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto the reference's meshes; "
              "*error vs check* the same against the check. Runs under 20 s are the fastest of 3 (this machine's "
@@ -283,7 +285,8 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
         cells = [row["variant"], row["level"], f"{row['nodes1']}, {row['nodes2']}", row["N"]]
         cells += [number(row[key]) if key in row else "" for key in ("timeTarget", "estimatedTimeError")]
         cells += [f"{row[key]:.3f}" for key in ("wall", "startup", "meshing", "setup", "columns", "loop", "output")]
-        cells += [f"{row['overheadRatio']:.2f}", f"{row['laterOverheadRatio']:.2f}",
+        cells += [f"{row['overheadRatio']:.2f}",
+                  f"{row['laterOverheadRatio']:.2f} ({row['laterOverheadLow']:.2f}–{row['laterOverheadHigh']:.2f})",
                   f"{row['setupMemoryMB']:.0f} / {row['peakMemoryMB']:.0f}",
                   f"{row['contactIters']:.2f}"]
         for key, own in (("errorToReference", "reference"), ("errorToCheck", "reference check")):

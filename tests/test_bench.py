@@ -118,4 +118,9 @@ def test_the_timed_back_substitutions_change_no_result(tmp_path, steps):
     assert strip(plain.folder / "history.csv") == strip(timed.folder / "history.csv")
     facts = json.loads((timed.folder / "run.json").read_text())
     assert facts["backsubSecondsPerStep"] > 0 and facts["backsubSets"] == 5
+    # a step followed by sets is paired with them (none after a loop of one step); a step does at
+    # least its own back-substitutions
+    assert facts["overheadPairs"] == (0 if steps == 1 else 5)
+    if steps > 1:
+        assert 1 < facts["overheadPairedLow"] <= facts["overheadPairedMedian"] <= facts["overheadPairedHigh"]
     assert json.loads((plain.folder / "run.json").read_text())["backsubSecondsPerStep"] == 0
