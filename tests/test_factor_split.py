@@ -77,6 +77,12 @@ FACTOR_CHECK = textwrap.dedent("""
       u -= uK;
       cout << "u" << pass << " " << u.linfty/uK.linfty << endl;
     }
+    real[int] none(m), free = zHat;  /* λ = 0: K⁻¹F to the bit (a step that leaves every node open) */
+    none = 0;
+    subtractProduct(Y, none, free);
+    factorBackward(K, free);
+    free -= x;
+    cout << "open " << free.linfty << endl;
     int other = factorColumns(K, Ct, S, 7);  /* another body's: kept apart */
     cout << "apart " << (other - Y) << endl;
 """)
@@ -88,7 +94,7 @@ def factor_facts(tmp_path, side: int) -> dict[str, float]:
     done = run_script(script)
     assert done.returncode == 0, done.stdout + done.stderr
     return {line.split()[0]: float(line.split()[1]) for line in done.stdout.splitlines()
-            if line.split() and line.split()[0] in ("complete", "halves", "filled", "S", "gap", "u0", "u1", "apart")}
+            if line.split() and line.split()[0] in ("complete", "halves", "filled", "S", "gap", "u0", "u1", "open", "apart")}
 
 
 # 6: a simplicial LDLᵀ factor (CHOLMOD's choice for small matrices); 150: supernodal LLᵀ.
@@ -98,7 +104,7 @@ def test_the_halves_of_a_solve_and_the_condensed_operator_are_the_solves_with_k(
     assert facts["complete"] == 1
     assert facts["halves"] == 0  # CHOLMOD's own solve runs the same steps
     assert facts["S"] <= 1e-13 and facts["gap"] <= 1e-13 and facts["u0"] <= 1e-13 and facts["u1"] <= 1e-13
-    assert facts["apart"] == 1
+    assert facts["open"] == 0 and facts["apart"] == 1
     if side == 150:
         assert facts["filled"] < 0.04  # L⁻¹ of a bottom node reaches its elimination-tree path only
 

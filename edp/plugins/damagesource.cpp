@@ -10,9 +10,10 @@
 // (1 − ζc)/ζc as 1/ζc − 1, added as λ_D/ζc, then λ_w − λ_D; max(ζ, ζ_min) and min(s, L) as
 // arrays.idp's maxWith, minWith write them ((|v − c| + v) + c)/2 and ((−|v − c| + v) + c)/2; the
 // clamp and the truncation only where they act (ζ's least value below ζ_min, ε:ε's largest above
-// L, as FreeFEM's min and max find them); the count of nodes below as arrays.idp's positivePart01
-// summed; a product as FreeFEM's, each row summed from 0 in its matrix's order.
+// L, as FreeFEM's min and max find them, NaN and all); the count of nodes below as arrays.idp's
+// positivePart01 summed; a product as FreeFEM's, each row summed from 0 in its matrix's order.
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <vector>
 #include "ff++.hpp"
@@ -59,15 +60,16 @@ static long damageOperators(Matrice_Creuse<double>* const& Md, Matrice_Creuse<do
   return static_cast<long>(kept.size()) - 1;
 }
 
-// FreeFEM's min and max of an array: the first value, then each one that compares below (above)
+// FreeFEM's min and max of an array (KN_::min, max): from the largest (lowest) double, each value
+// kept unless the running one compares below (above) it, so a NaN is taken and then passed over
 static double leastOf(const KN<double>& v) {
-  double m = v[0];
-  for (long j = 1; j < v.N(); j++) if (v[j] < m) m = v[j];
+  double m = std::numeric_limits<double>::max();
+  for (long j = 0; j < v.N(); j++) m = m < v[j] ? m : v[j];
   return m;
 }
 static double largestOf(const KN<double>& v) {
-  double m = v[0];
-  for (long j = 1; j < v.N(); j++) if (v[j] > m) m = v[j];
+  double m = std::numeric_limits<double>::lowest();
+  for (long j = 0; j < v.N(); j++) m = m > v[j] ? m : v[j];
   return m;
 }
 

@@ -94,7 +94,7 @@ static long strainsOf(long const& o, KN<double>* const& u, KN<double>* const& e1
     for (int q = 0; q < ny; q++) g += vy[q]*uu[cy[q] - 1];  // ∂y of the x-component
     for (int q = 0; q < nx; q++) g += vx[q]*uu[cx[q] + 1];  // then ∂x of the y-component
     (*e11)[t] = a; (*e22)[t] = b; (*g12)[t] = g;
-    (*density)[t] = (a*a + b*b) + 0.5*(g*g);  // stresses.cpp's strainDensity, in its grouping
+    (*density)[t] = (a*a + b*b) + 0.5*(g*g);  // the grouping of the script it replaced
   }
   return 0;
 }

@@ -16,7 +16,8 @@
 //   σ = A ε(u̇ⁿ) + ζ̄ G ε(uⁿ):  s11 = (μ/k) tr d + (η/k) d11 + elastic11,  s12 = elastic12 + (½η/k) dγ12
 //   σ33 = 0 in plane stress; in plane strain (ε33 = 0) (μ/k) tr d + aG ζ̄ tr ε (aG = λ there)
 //   vmSquared = σ11² + σ22² + σ33² − σ11σ22 − σ22σ33 − σ33σ11 + 3σ12²;  returns √max vmSquared.
-// elastic11, elastic22, elastic12 are the next step's explicit elastic force. The stresses and
+// elastic11, elastic22, elastic12 are the stress of the next Euler step's explicit force (before a
+// BDF2 step, bdf2Explicit writes over them). The stresses and
 // vmSquared are written only with fields = 1 (a step whose files hold them); the largest von Mises
 // norm is returned either way (the history's). Every value is
 // computed with the operations, in the order, of the script it replaces, so the results are its
