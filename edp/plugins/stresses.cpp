@@ -27,36 +27,53 @@
 #include "ff++.hpp"
 #include "AFunction_ext.hpp"
 
-class Stresses : public E_F0mps {
+// A FreeFEM function of a material array and per-triangle arrays, every argument a real[int]:
+// the arguments checked, then Kernel::compute(material, x, n) with x[a] the values of argument
+// a > 0, each of n values. A Kernel names itself and its arguments (name, usage, materialUsage),
+// counts them (arguments, materialSize) and gives its Result.
+template<class Kernel>
+class PerTriangle : public E_F0mps {
  public:
+  typedef typename Kernel::Result Result;
+  Expression argument[Kernel::arguments];
+  explicit PerTriangle(const basicAC_F0& args) {
+    args.SetNameParam(0, 0, 0);
+    if (args.size() != Kernel::arguments) CompileError(std::string(Kernel::name()) + ": " + Kernel::usage());
+    for (int a = 0; a < Kernel::arguments; a++) argument[a] = to<KN<double>*>(args[a]);
+  }
+  static ArrayOfaType typeargs() { return ArrayOfaType(atype<KN<double>*>(), true); }
+  static E_F0* f(const basicAC_F0& args) { return new PerTriangle(args); }
+  operator aType() const { return atype<Result>(); }
+  AnyType operator()(Stack stack) const {
+    KN<double>* v[Kernel::arguments];
+    for (int a = 0; a < Kernel::arguments; a++) v[a] = GetAny<KN<double>*>((*argument[a])(stack));
+    if (v[0]->N() != Kernel::materialSize)
+      ExecError(std::string(Kernel::name()) + ": material = " + Kernel::materialUsage());
+    const long n = v[1]->N();
+    double* x[Kernel::arguments] = {0};
+    for (int a = 1; a < Kernel::arguments; a++) {
+      if (v[a]->N() != n) ExecError(std::string(Kernel::name()) + ": every per-triangle array must have one value per triangle");
+      x[a] = &(*v[a])[0];
+    }
+    return SetAny<Result>(Kernel::compute(*v[0], x, n));
+  }
+};
+
+struct Stresses {
   typedef double Result;
   enum { material, zetaBar, e11, e22, g12, e11Old, e22Old, g12Old, e11Old2, e22Old2, g12Old2,
          s11, s22, s12, s33, vmSquared, elastic11, elastic22, elastic12, arguments };
-  Expression argument[arguments];
-  explicit Stresses(const basicAC_F0& args) {
-    args.SetNameParam(0, 0, 0);
-    if (args.size() != arguments) CompileError("stresses: 19 arguments (material, zetaBar, 9 strains, 8 results)");
-    for (int a = 0; a < arguments; a++) argument[a] = to<KN<double>*>(args[a]);
-  }
-  static ArrayOfaType typeargs() { return ArrayOfaType(atype<KN<double>*>(), true); }
-  static E_F0* f(const basicAC_F0& args) { return new Stresses(args); }
-  operator aType() const { return atype<double>(); }
-  AnyType operator()(Stack stack) const;
+  enum { materialSize = 8 };
+  static const char* name() { return "stresses"; }
+  static const char* usage() { return "19 arguments (material, zetaBar, 9 strains, 8 results)"; }
+  static const char* materialUsage() { return "[aG, bG, mu, eta, k, planeStrain, bdf2Rate, fields]"; }
+  static double compute(const KN<double>& m, double* const x[], long n);
 };
 
-AnyType Stresses::operator()(Stack stack) const {
-  KN<double>* v[arguments];
-  for (int a = 0; a < arguments; a++) v[a] = GetAny<KN<double>*>((*argument[a])(stack));
-  const KN<double>& m = *v[material];
-  if (m.N() != 8) ExecError("stresses: material = [aG, bG, mu, eta, k, planeStrain, bdf2Rate, fields]");
-  const long n = v[zetaBar]->N();
-  for (int a = zetaBar; a < arguments; a++)
-    if (v[a]->N() != n) ExecError("stresses: every per-triangle array must have one value per triangle");
+double Stresses::compute(const KN<double>& m, double* const x[], long n) {
   const double aG = m[0], bG = m[1], mu = m[2], eta = m[3], k = m[4];
   const bool planeStrain = m[5] != 0, bdf2Rate = m[6] != 0, fields = m[7] != 0;
   const double muk = mu/k, etak = eta/k, shear = 0.5*bG, shearRate = 0.5*eta/k;
-  double* x[arguments];
-  for (int a = zetaBar; a < arguments; a++) x[a] = &(*v[a])[0];
   double largest = std::numeric_limits<double>::lowest();
   for (long t = 0; t < n; t++) {
     double d11, d22, dg12;
@@ -99,34 +116,19 @@ AnyType Stresses::operator()(Stack stack) const {
 // x11, x22, x12 = σ* (the step's force is Σ_T |T| σ*_T : ε_T(v), added), and densityStar = ε(u*):ε(u*),
 // the next damage step's source. Each part as the script wrote it (its viscous and weakened parts
 // apart, in its order), then added.
-class Bdf2Explicit : public E_F0mps {
- public:
+struct Bdf2Explicit {
   typedef long Result;
   enum { material, zetaStarBar, e11, e22, g12, e11Old, e22Old, g12Old, x11, x22, x12, densityStar, arguments };
-  Expression argument[arguments];
-  explicit Bdf2Explicit(const basicAC_F0& args) {
-    args.SetNameParam(0, 0, 0);
-    if (args.size() != arguments) CompileError("bdf2Explicit: 12 arguments (material, zetaStarBar, 6 strains, 4 results)");
-    for (int a = 0; a < arguments; a++) argument[a] = to<KN<double>*>(args[a]);
-  }
-  static ArrayOfaType typeargs() { return ArrayOfaType(atype<KN<double>*>(), true); }
-  static E_F0* f(const basicAC_F0& args) { return new Bdf2Explicit(args); }
-  operator aType() const { return atype<long>(); }
-  AnyType operator()(Stack stack) const;
+  enum { materialSize = 5 };
+  static const char* name() { return "bdf2Explicit"; }
+  static const char* usage() { return "12 arguments (material, zetaStarBar, 6 strains, 4 results)"; }
+  static const char* materialUsage() { return "[aG, bG, mu, eta, k]"; }
+  static long compute(const KN<double>& m, double* const x[], long n);
 };
 
-AnyType Bdf2Explicit::operator()(Stack stack) const {
-  KN<double>* v[arguments];
-  for (int a = 0; a < arguments; a++) v[a] = GetAny<KN<double>*>((*argument[a])(stack));
-  const KN<double>& m = *v[material];
-  if (m.N() != 5) ExecError("bdf2Explicit: material = [aG, bG, mu, eta, k]");
-  const long n = v[zetaStarBar]->N();
-  for (int a = zetaStarBar; a < arguments; a++)
-    if (v[a]->N() != n) ExecError("bdf2Explicit: every per-triangle array must have one value per triangle");
+long Bdf2Explicit::compute(const KN<double>& m, double* const x[], long n) {
   const double aG = m[0], bG = m[1], mu = m[2], eta = m[3], k = m[4];
   const double now = 2/k, before = -0.5/k, shearRate = 0.5*eta, shear = 0.5*bG;
-  double* x[arguments];
-  for (int a = zetaStarBar; a < arguments; a++) x[a] = &(*v[a])[0];
   for (long t = 0; t < n; t++) {
     const double r11 = now*x[e11][t] + before*x[e11Old][t], r22 = now*x[e22][t] + before*x[e22Old][t];
     const double r12 = now*x[g12][t] + before*x[g12Old][t], rTrace = r11 + r22;
@@ -142,8 +144,8 @@ AnyType Bdf2Explicit::operator()(Stack stack) const {
 }
 
 static void init() {
-  Global.Add("stresses", "(", new OneOperatorCode<Stresses>());
-  Global.Add("bdf2Explicit", "(", new OneOperatorCode<Bdf2Explicit>());
+  Global.Add("stresses", "(", new OneOperatorCode<PerTriangle<Stresses> >());
+  Global.Add("bdf2Explicit", "(", new OneOperatorCode<PerTriangle<Bdf2Explicit> >());
 }
 
 LOADFUNC(init)
