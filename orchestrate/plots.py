@@ -19,7 +19,13 @@ def log_axes(axis, xlabel: str, ylabel: str) -> None:
     axis.set_xlabel(xlabel)
     axis.set_ylabel(ylabel)
     axis.grid(True, which="both", alpha=0.3)
-    axis.legend()
+    legend(axis)
+
+
+def legend(axis, **options) -> None:
+    """The axis's legend, if anything on it has a label (a study run at a small size may leave a panel empty)."""
+    if axis.get_legend_handles_labels()[0]:
+        axis.legend(**options)
 
 
 def save(figure, target: Path, dpi: int = 110) -> None:

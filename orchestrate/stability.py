@@ -14,7 +14,7 @@ import numpy as np
 
 from orchestrate.freefem import REPO
 from orchestrate.manifest import read_json
-from orchestrate.plots import log_axes, pyplot, save
+from orchestrate.plots import legend, log_axes, pyplot, save
 from orchestrate.reports import stability_report, write_csv
 from orchestrate.scene import Scene
 
@@ -263,8 +263,10 @@ def plot(target: Path, rows: list[dict]) -> None:
                 implicit.loglog(*zip(*points), marker + ("-" if scheme == "bdf2" else "--"), mfc="none",
                                 label=f"{scheme}, E/η = {ratio:.3g}")
     implicit.set_title("stable far above k*, with strong damage: accuracy", fontsize=10)
+    if not implicit.get_lines():
+        implicit.text(0.5, 0.5, "no implicit-elasticity cases in this study", ha="center", transform=implicit.transAxes)
     log_axes(implicit, "k / k* (k* the paper's scheme's bound)", "|‖u(T)‖_V / reference − 1|")
-    implicit.legend(fontsize=7, ncol=2)
+    legend(implicit, fontsize=7, ncol=2)
     save(figure, target)
 
 
