@@ -14,12 +14,12 @@ def pyplot():
     return plt
 
 
-def log_axes(axis, xlabel: str, ylabel: str) -> None:
-    """The labels, a grid at every decade line and the legend of a log–log plot."""
+def log_axes(axis, xlabel: str, ylabel: str, **legend_options) -> None:
+    """The labels, a grid at every decade line and the legend of a log–log plot (legend_options: matplotlib's)."""
     axis.set_xlabel(xlabel)
     axis.set_ylabel(ylabel)
     axis.grid(True, which="both", alpha=0.3)
-    legend(axis)
+    legend(axis, **legend_options)
 
 
 def legend(axis, **options) -> None:

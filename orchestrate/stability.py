@@ -14,7 +14,7 @@ import numpy as np
 
 from orchestrate.freefem import REPO
 from orchestrate.manifest import read_json
-from orchestrate.plots import legend, log_axes, pyplot, save
+from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.reports import stability_report, write_csv
 from orchestrate.scene import Scene
 
@@ -269,8 +269,7 @@ def plot(target: Path, rows: list[dict]) -> None:
                       else "no implicit-elasticity cases in this study", ha="center", transform=implicit.transAxes)
         implicit.set_xticks([])
         implicit.set_yticks([])
-    log_axes(implicit, "k / k* (k* the paper's scheme's bound)", "|‖u(T)‖_V / reference − 1|")
-    legend(implicit, fontsize=7, ncol=2)
+    log_axes(implicit, "k / k* (k* the paper's scheme's bound)", "|‖u(T)‖_V / reference − 1|", fontsize=7, ncol=2)
     save(figure, target)
 
 
