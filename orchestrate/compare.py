@@ -33,9 +33,10 @@ SAME_TIME = 1e-6  # of the smaller time step: output times of two runs that are 
 
 
 def state_times(result: Result) -> list[tuple[float, Path]]:
-    """(t, file) of every state the run saved, in time order (t is each file's first number)."""
+    """(t, file) of every state the run saved (those its manifest lists: no other file of the
+    folder), in time order (t is each file's first number)."""
     found = []
-    for path in sorted(result.folder.glob("state_*.txt")):
+    for path in (result.folder / name for name in result.files if name.startswith("state_")):
         with open(path) as handle:
             found.append((float(handle.read(64).split()[0]), path))
     return sorted(found)

@@ -123,6 +123,9 @@ class Parser:
         if tree_depth(tree) > MAX_TREE_DEPTH:
             raise ExpressionError(self.text, 0, f"expression deeper than {MAX_TREE_DEPTH} operations in a chain",
                                   self.variables)
+        bad = not_finite(tree)
+        if bad is not None:
+            raise ExpressionError(self.text, 0, f"a part of it, {to_freefem(bad)}, is not a finite number", self.variables)
         return tree
 
     def deeper(self):
@@ -153,7 +156,11 @@ class Parser:
         left = self.unary()
         while (token := self.peek()) and token[1] in ("*", "/"):
             self.index += 1
-            left = Binary(token[1], left, self.unary())
+            right = self.unary()
+            if token[1] == "/" and constant(right) == 0:  # FreeFEM stops on it, or crashes inside an interpolation
+                raise ExpressionError(self.text, token[2], "division by zero (the divisor is 0 everywhere)",
+                                      self.variables)
+            left = Binary(token[1], left, right)
         return left
 
     def unary(self):
@@ -230,6 +237,24 @@ def tree_depth(tree) -> int:
         deepest = max(deepest, depth)
         stack += [(child, depth + 1) for child in children(node)]
     return deepest
+
+
+def constant(tree) -> float | None:
+    """The value of a tree without variables (nan where Python's math refuses it), else None."""
+    if isinstance(tree, Variable) or any(constant(child) is None for child in children(tree)):
+        return None
+    try:
+        return evaluate(tree, 0.0, 0.0, 0.0)
+    except (ArithmeticError, ValueError):  # division by zero, log(0), sqrt(-1), an overflow
+        return math.nan
+
+
+def not_finite(tree):
+    """The first part of a tree without variables whose value is not a finite number, or None."""
+    value = constant(tree)
+    if value is not None:
+        return tree if not math.isfinite(value) else None
+    return next((bad for child in children(tree) if (bad := not_finite(child)) is not None), None)
 
 
 def parse(text: str, variables: tuple[str, ...] = VARIABLES):

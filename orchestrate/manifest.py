@@ -5,10 +5,11 @@ with files cut short. So a run is complete only when every file it lists in run.
 its last act) has been read back whole: history.csv with a row per step, every .vtu parsed with
 the node and triangle counts the run reported, every state file with its arrays' lengths, the
 .pvd naming only files of the run. Then `manifest.json`, written last and atomically, records the
-size and SHA-256 of every file in the folder (images aside: `render` remakes them) and the digest
-of the run's inputs. `load_result`,
-`render` and `sweep` trust a folder only through it; a folder FreeFem++ wrote by hand (run.json,
-no manifest) is checked file by file each time it is loaded.
+size and SHA-256 of every file in the folder (images aside: `render` remakes them) and the run's
+inputs. `load_result`, `render`, `compare` and `sweep` trust a folder only through it, and only
+what it lists: the manifest must name exactly the folder's files (images aside), those run.json
+lists and the runner's own, each by one of the fixed names of a run's files. A folder FreeFem++
+wrote by hand (run.json, no manifest) is checked file by file each time it is loaded.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
@@ -24,6 +26,18 @@ import numpy as np
 
 MANIFEST = "manifest.json"
 FACTS = "run.json"
+# The names of a run's files, and no other: the driver's (edp/lib/output.idp: NNNN is the step)
+# and the runner's (orchestrate/runner.py); a name read from a data file is used only when it is one.
+DRIVER_FILE = re.compile(r"(history\.csv|params_used\.json|solution\.pvd|run\.json"
+                         r"|(body1|body2|contact)_[0-9]{4,}\.vtu|state_[0-9]{4,}\.txt)")
+RUNNER_FILES = ("inputs.json", "scene.toml", "scene.idp", "run.log", "body1.msh", "body2.msh", "summary.json",
+                "steps.json")
+IMAGE = re.compile(r"[a-z0-9_-]{1,64}\.png")  # render's, made anew from the data: outside the manifest
+SHA256 = re.compile(r"[0-9a-f]{64}")
+
+
+def is_run_file(name: str) -> bool:
+    return bool(DRIVER_FILE.fullmatch(name)) or name in RUNNER_FILES
 PARTS = ("body1", "body2", "contact")
 BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
 
@@ -57,8 +71,8 @@ def check_files(folder: Path) -> dict:
     run = facts(folder)
     files = run.get("files", [])
     for name in files:
-        if Path(name).name != name or not (folder / name).is_file():
-            raise IncompleteRun(f"{folder}: the run lists {name!r}, which is not a file of the folder")
+        if not isinstance(name, str) or not DRIVER_FILE.fullmatch(name) or not regular_file(folder / name):
+            raise IncompleteRun(f"{folder}: the run lists {name!r}, which is not a file of the folder by a run's name")
     params = read_json(folder / "params_used.json")
     _check_history(folder / "history.csv", int(params["N"]))
     for name in files:
@@ -141,11 +155,14 @@ def digest(path: Path) -> str:
 
 def write_manifest(folder: Path, inputs: dict) -> None:
     """Sizes and hashes of every file in the folder but the images (which `render` makes anew from
-    the data), and the inputs' digest, written last: a folder with a manifest was complete when it
-    was written."""
-    entries = {path.name: {"bytes": path.stat().st_size, "sha256": digest(path)}
-               for path in sorted(Path(folder).iterdir())
-               if path.is_file() and path.name != MANIFEST and path.suffix != ".png"}
+    the data), and the inputs, written last: a folder with a manifest was complete when it was
+    written. A file by a name no run writes is refused, not listed."""
+    names = sorted(path.name for path in Path(folder).iterdir() if path.name != MANIFEST and not IMAGE.fullmatch(path.name))
+    stray = [name for name in names if not is_run_file(name) or not regular_file(Path(folder) / name)]
+    if stray:
+        raise IncompleteRun(f"{folder}: holds {', '.join(stray)}, which no run writes: a manifest lists a run's files only")
+    entries = {name: {"bytes": (Path(folder) / name).stat().st_size, "sha256": digest(Path(folder) / name)}
+               for name in names}
     text = json.dumps({"inputs": inputs, "files": entries}, indent=1) + "\n"
     partial = Path(folder) / (MANIFEST + ".partial")
     with open(partial, "w") as handle:
@@ -155,14 +172,38 @@ def write_manifest(folder: Path, inputs: dict) -> None:
     partial.replace(Path(folder) / MANIFEST)
 
 
+def regular_file(path: Path) -> bool:
+    return path.is_file() and not path.is_symlink()
+
+
 def verify_manifest(folder: Path) -> dict:
-    """The manifest of a run folder, after checking that every file it lists is unchanged."""
+    """The manifest of a run folder, after checking that it lists exactly the folder's files (by a
+    run's names), those run.json lists and the runner's own, each unchanged, and that the history
+    has its rows; raises IncompleteRun naming the first that is not so."""
     folder = Path(folder)
     manifest = read_json(folder / MANIFEST)
-    for name, entry in manifest.get("files", {}).items():
+    entries = manifest.get("files") if isinstance(manifest, dict) else None
+    if not isinstance(entries, dict) or not isinstance(manifest.get("inputs"), dict):
+        raise IncompleteRun(f"{folder / MANIFEST}: not a run's manifest (no inputs or no files)")
+    listed = set(entries)
+    present = {path.name for path in folder.iterdir() if path.name != MANIFEST and not
+               (IMAGE.fullmatch(path.name) and regular_file(path))}
+    if present != listed:
+        extra, missing = sorted(present - listed), sorted(listed - present)
+        raise IncompleteRun(f"{folder}: the folder and its manifest differ ("
+                            + "; ".join(filter(None, [extra and f"not in the manifest: {', '.join(extra)}",
+                                                      missing and f"missing: {', '.join(missing)}"])) + ")")
+    for name, entry in entries.items():
         path = folder / name
-        if Path(name).name != name or not path.is_file():
-            raise IncompleteRun(f"{folder}: {name!r} is missing (the manifest lists it)")
-        if path.stat().st_size != entry["bytes"] or digest(path) != entry["sha256"]:
+        if not is_run_file(name) or not regular_file(path):
+            raise IncompleteRun(f"{folder}: the manifest lists {name!r}, which is not a run's file")
+        if not (isinstance(entry, dict) and entry.get("bytes") == path.stat().st_size
+                and SHA256.fullmatch(str(entry.get("sha256"))) and digest(path) == entry["sha256"]):
             raise IncompleteRun(f"{path}: changed since the run finished (size or SHA-256 differ from the manifest)")
+    written = facts(folder).get("files")
+    if not isinstance(written, list) or not {FACTS, *map(str, written)} <= listed \
+            or not listed - set(map(str, written)) <= {FACTS, *RUNNER_FILES}:
+        raise IncompleteRun(f"{folder}: the manifest does not list the files run.json names, and those only "
+                            "(with the runner's own)")
+    _check_history(folder / "history.csv", int(read_json(folder / "params_used.json")["N"]))
     return manifest

@@ -29,6 +29,15 @@ class Result:
         return {name: np.asarray(table[name]) for name in table.dtype.names}
 
     @cached_property
+    def files(self) -> list[str]:
+        """The names of the run's files: those its manifest lists (a run of orchestrate), else those
+        run.json lists (none without either). A reader takes no other file of the folder."""
+        for name in (MANIFEST, FACTS):
+            if (self.folder / name).is_file():
+                return sorted(json.loads((self.folder / name).read_text())["files"])
+        return []
+
+    @cached_property
     def params(self) -> dict:
         return json.loads((self.folder / "params_used.json").read_text())
 

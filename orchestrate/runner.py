@@ -37,6 +37,7 @@ from pathlib import Path
 
 from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
+from orchestrate.identity import solver_identity
 from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, write_manifest
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.results import Result, load_result
@@ -188,25 +189,14 @@ def result_code(scene: Scene) -> str:
     return to_freefem_scene(scene.model_copy(update={"output": output}))
 
 
-def solver_sources_digest() -> str:
-    """The solver's sources: the driver and every file it includes or reads (libraries, the
-    parameter table, the default scene, the benchmark hook)."""
-    sha = hashlib.sha256()
-    sources = [MAIN, REPO / "edp" / "lib" / "parameters.md", REPO / "edp" / "tools" / "measure.idp",
-               *(REPO / "edp" / "lib").glob("*.idp"), *(REPO / "edp" / "scenes").glob("*.idp")]
-    for path in sorted(sources):
-        sha.update(path.relative_to(REPO).as_posix().encode() + b"\0" + path.read_bytes())
-    return sha.hexdigest()
-
-
 # Scene keys that change no result: when a run checkpoints, whether it makes images and their units.
 RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images", "units")
 
 
 def inputs_of(scene: Scene) -> dict:
     """Everything a run's result depends on: the scene as validated (RESULT_FREE aside) and the
-    FreeFEM scene written from it (so a change in how it is written counts), the solver's sources
-    and what determines each body's mesh (committed file content, or .geo sources, the mesher,
+    FreeFEM scene written from it (so a change in how it is written counts), the solver's identity
+    (its sources, plugins and FreeFem++: orchestrate/identity.py) and what determines each body's mesh (committed file content, or .geo sources, the mesher,
     numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
@@ -214,24 +204,42 @@ def inputs_of(scene: Scene) -> dict:
         data[body]["mesh"].pop("geo")
     parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
              "freefemScene": hashlib.sha256(result_code(scene).encode()).hexdigest(),
-             "solver": solver_sources_digest(),
+             "solver": solver_identity(MAIN),
              "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine)
                         for body in (scene.body1, scene.body2)]}
     parts["digest"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return parts
 
 
+CHECKPOINTS = ("checkpoint-a.txt", "checkpoint-b.txt")
+
+
+def sealed_checkpoint(path: Path) -> tuple[int, str] | None:
+    """(step, run identity) of a whole checkpoint file: its last line "end <step>" repeats its
+    first, "checkpoint <step>", and the line before is the SHA-256 of all above it (the driver's
+    rule, edp/lib/checkpoint.idp); None for any other file."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    lines = data.split(b"\n")
+    if len(lines) < 5 or lines[-1] != b"" or not lines[-3].startswith(b"seal "):
+        return None
+    body = b"\n".join(lines[:-3]) + b"\n"
+    first, identity = lines[0].split(), lines[1].split()
+    whole = (len(first) == 2 and first[0] == b"checkpoint" and lines[-2] == b"end " + first[1]
+             and len(identity) == 2 and identity[0] == b"run"
+             and lines[-3][len(b"seal "):].decode(errors="replace") == hashlib.sha256(body).hexdigest())
+    return (int(first[1]), identity[1].decode()) if whole and first[1].isdigit() else None
+
+
 def checkpoint_step(partial: Path) -> int:
-    """The step of the newest checkpoint file in a partial folder (0: none); whether it is whole
-    is the driver's to judge."""
-    steps = [0]
-    for path in (partial / "checkpoint-a.txt", partial / "checkpoint-b.txt"):
-        try:
-            with open(path) as handle:
-                steps.append(int(handle.readline().split()[1]))
-        except (OSError, ValueError, IndexError):
-            pass
-    return max(steps)
+    """The step of the newest whole checkpoint in a partial folder (0: none)."""
+    return max([0] + [found[0] for name in CHECKPOINTS if (found := sealed_checkpoint(partial / name))])
+
+
+def checkpoint_identities(partial: Path) -> set[str]:
+    return {found[1] for name in CHECKPOINTS if (found := sealed_checkpoint(partial / name))}
 
 
 def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
@@ -245,6 +253,7 @@ def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
         same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
     except (OSError, ValueError, KeyError):
         same = False
+    same = same and checkpoint_identities(partial) == {inputs["digest"]}
     if force and not (resume and same):
         return False
     if not resume:
@@ -294,7 +303,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         try:
             with signals_as_interrupt():
                 planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar)
-                summary = build(planned, partial, bar, mesh_cache, solver_flags, restart)
+                summary = build(planned, partial, bar, mesh_cache, ("-runIdentity", inputs["digest"], *solver_flags), restart)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)

@@ -18,6 +18,8 @@ import math
 import shutil
 from pathlib import Path
 
+from orchestrate.parameters import PARAMETERS
+
 ORDER = {"euler": 1, "semi-implicit": 1, "bdf2": 2}
 FIRST_PILOT, MOST_DOUBLINGS = 10, 10
 STEP_FAILURES = (3, 4, 5)  # exits a smaller step can cure: a bound refused, a loop or an invariant broke
@@ -50,12 +52,19 @@ def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | st
     from orchestrate.runner import SolverError, run
 
     manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
+    from orchestrate.mesh import MeshError
+
+    overrides = pilot_overrides(scene, steps)
     try:
-        run(manual, folder, pilot_overrides(scene, steps), force=True, progress=False, mesh_cache=mesh_cache)
+        run(manual, folder, overrides, force=True, progress=False, mesh_cache=mesh_cache)
     except SolverError as error:
         if error.returncode not in STEP_FAILURES:
             raise StepsError(f"time.N = 'auto': the pilot run at N = {steps} failed: {error}") from None
         return error.message
+    except MeshError as error:  # the pilots' meshes are this rule's, not the user's: say so
+        meshes = ", ".join(f"{key} = {value}" for key, value in overrides.items() if ".mesh." in key)
+        raise StepsError(f"time.N = 'auto' runs its pilots on meshes one level coarser than the scene's ({meshes}), "
+                         f"and those cannot be meshed: {error}; give time.N yourself") from None
     return folder
 
 
@@ -109,7 +118,10 @@ def time_error_model(scene, work: Path, mesh_cache: Path | None = None) -> dict:
 def steps_for(model: dict, target: float) -> tuple[int, float]:
     """Step 3 of the rule: the N for a target time error, and the error estimated at that N."""
     finest, error, p = 4 * model["firstPilot"], model["finestPilotError"], model["orderUsed"]
-    chosen = max(model["firstPilot"], math.ceil(finest * (error / target) ** (1 / p))) if error > 0 else model["firstPilot"]
+    needed = finest * (error / target) ** (1 / p) if error > 0 else 0.0
+    if not needed < 2.0 ** 62:  # beyond every N: told by choose_steps, never rounded to a wrong integer
+        return math.inf, 0.0
+    chosen = max(model["firstPilot"], math.ceil(needed))
     return chosen, error * (finest / chosen) ** p
 
 
@@ -117,5 +129,12 @@ def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
     """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
     model = time_error_model(scene, work, mesh_cache)
     chosen, estimated = steps_for(model, scene.time.targetError)
+    most = int(PARAMETERS["N"].bounds["le"])
+    if chosen > most:
+        reachable = model["finestPilotError"] * (4 * model["firstPilot"] / most) ** model["orderUsed"]
+        raise StepsError(f"time.targetError = {scene.time.targetError:g}: the pilots' error model (order "
+                         f"{model['orderUsed']:.3g}, {model['finestPilotError']:.3g} at N = {4 * model['firstPilot']}) "
+                         f"needs N = {chosen:,} steps, above the largest N, {most:,}: give time.targetError >= "
+                         f"{reachable:.3g}, or a higher-order time.scheme")
     return {"rule": "time.N = 'auto' (orchestrate/steps.py)", "targetError": scene.time.targetError, **model,
             "N": chosen, "estimatedError": estimated}

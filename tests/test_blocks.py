@@ -206,8 +206,10 @@ def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(t
         folder = tmp_path / name
         folder.mkdir()
         (folder / "params_used.json").write_text(json.dumps({"k": 1e-9 / steps}))
-        for j in range(1, steps + 1):
-            (folder / f"state_{j:04d}.txt").write_text(f"{j * 1e-9 / steps!r} 0\n")
+        names = [f"state_{j:04d}.txt" for j in range(1, steps + 1)]
+        for j, name in enumerate(names, 1):
+            (folder / name).write_text(f"{j * 1e-9 / steps!r} 0\n")
+        (folder / "run.json").write_text(json.dumps({"files": names}))  # what compare reads, and nothing else
         return Result(folder)
 
     fine, coarse = fake("fine", 4), fake("coarse", 2)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from conftest import resealed  # noqa: E402
 from test_restart import DRIVER, killed_driver, rows, same_results  # noqa: E402
 
 from orchestrate.freefem import MAIN, REPO, run_script  # noqa: E402
@@ -192,7 +193,7 @@ def test_a_checkpoint_made_without_a_parameter_of_this_driver_is_refused(tmp_pat
         if not at or len(kept) == len(lines):
             continue  # cut short by the kill: the restart passes it over
         kept[at[0]] = f"parameters {int(lines[at[0]].split()[1]) - 1}"
-        checkpoint.write_text("\n".join(kept) + "\n")
+        resealed(checkpoint, lambda _: kept[:-2])
         edited += 1
     assert edited
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])

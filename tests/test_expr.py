@@ -47,7 +47,19 @@ def trees(functions=tuple(expr.FUNCTIONS)):
 
 @given(trees())
 def test_printed_trees_parse_back_to_themselves(tree):
-    assert expr.parse(to_text(tree)) == tree
+    """Or are refused for a constant part that is not a finite number (a divisor 0 among them)."""
+    try:
+        parsed = expr.parse(to_text(tree))
+    except ExpressionError as error:
+        assert "division by zero" in str(error) or "is not a finite number" in str(error)
+        assert expr.not_finite(tree) is not None or any(
+            isinstance(part, Binary) and part.op == "/" and expr.constant(part.right) == 0 for part in parts(tree))
+        return
+    assert parsed == tree
+
+
+def parts(tree):
+    return [tree, *(part for child in expr.children(tree) for part in parts(child))]
 
 
 ALLOWED_CODE = re.compile(r"[\sA-Za-z0-9_.()+\-*/^<>=!,?:]*")
@@ -156,3 +168,29 @@ def test_error_names_the_position_and_the_allowed_tokens():
         expr.freefem("10*t + exec(1)")
     message = str(error.value)
     assert "'exec' is not allowed" in message and "position 7" in message and "sqrt" in message
+
+
+@pytest.mark.parametrize("text", ["0/0", "x/0", "1/0*t", "x/(1-1)", "t/(2-2)"])
+def test_a_division_by_a_zero_constant_is_refused_where_it_is(text):
+    """FreeFEM stops on a real division by 0 ("Div by 0", exit 8) or crashes inside an
+    interpolation (SIGSEGV): the scene says so first, at the '/'."""
+    with pytest.raises(ExpressionError, match=f"division by zero .* at position {text.index('/')} "):
+        expr.parse(text)
+
+
+@pytest.mark.parametrize("text, part", [("1e308*10", "((1e+308) * (10.0))"), ("log(0)", "log((0.0))"),
+                                        ("sqrt(-1) + x", "sqrt((-(1.0)))"), ("2^2000*t", "((2.0) ^ (2000.0))")])
+def test_a_constant_part_that_is_not_a_finite_number_is_refused_naming_it(text, part):
+    with pytest.raises(ExpressionError, match=re.escape(f"{part}, is not a finite number")):
+        expr.parse(text)
+
+
+@given(tree=trees())
+def test_a_tree_accepted_has_only_finite_constant_parts(tree):
+    try:
+        parsed = expr.parse(to_text(tree))
+    except ExpressionError:
+        return
+    for part in parts(parsed):
+        value = expr.constant(part)
+        assert value is None or math.isfinite(value)

@@ -4,6 +4,7 @@ and .pvd files identical to the bit to those of the same run uninterrupted; a ch
 inputs is refused; `orchestrate run --resume` and sweeps continue by themselves."""
 import json
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -11,7 +12,10 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+from conftest import resealed
 from orchestrate import run, sweep
 from orchestrate.freefem import MAIN, REPO, freefem_command, freefem_env, run_script
 from orchestrate.runner import RunError
@@ -42,11 +46,11 @@ def same_results(first: Path, second: Path) -> None:
     assert history[0] == history[1]
 
 
-def killed_driver(folder: Path, at_rows: int, extra: tuple = (), scene: Path | None = None) -> None:
+def killed_driver(folder: Path, at_rows: int, extra: tuple = (), scene: Path | None = None, driver=DRIVER) -> None:
     """The driver run into `folder` (with the scene file `scene`, from its folder), killed (SIGKILL)
     once its history has `at_rows` rows."""
     defines = {"SCENE": scene.name} if scene else None
-    process = subprocess.Popen(freefem_command(MAIN, [*DRIVER, *extra, "-out", str(folder)], defines),
+    process = subprocess.Popen(freefem_command(MAIN, [*driver, *extra, "-out", str(folder)], defines),
                                cwd=scene.parent if scene else REPO, env=freefem_env(),
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
@@ -141,9 +145,130 @@ def test_a_checkpoint_of_another_state_layout_is_refused(tmp_path):
     folder = tmp_path / "run"
     killed_driver(folder, 100)
     for checkpoint in folder.glob("checkpoint-?.txt"):
-        checkpoint.write_text(checkpoint.read_text().replace("\nstate-3\n", "\nstate-2\n"))
+        resealed(checkpoint, lambda lines: [line if line != "state-3" else "state-2" for line in lines])
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder])
     assert done.returncode == 3 and "kept another state" in done.error_line, done.error_line
+
+
+def restarted(folder: Path, *flags, out: Path | None = None):
+    return run_script(MAIN, [*DRIVER, *flags, "-out", out or folder, "-restart", folder])
+
+
+def test_a_checkpoint_naming_a_file_outside_its_folder_is_refused_and_nothing_is_written(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the user's\n")
+    (folder / "victim.txt").write_text("the checkpoint folder's\n")
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        resealed(checkpoint, lambda lines: [line + " ../victim.txt" if line.startswith("files ") and line != "files end"
+                                            else line for line in lines])
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and "'../victim.txt', which is not one of the run's" in done.error_line, done.error_line
+    assert victim.read_text() == "the user's\n"
+
+
+@pytest.mark.parametrize("entry", ["../victim.txt", "/etc/passwd", "state_12.txt", "body3_0120.vtu", "run.json"])
+def test_a_sealed_file_entry_that_is_not_a_run_file_name_is_refused(tmp_path, entry):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    digest = "0" * 64
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        resealed(checkpoint, lambda lines: sum(([line, f"sha256 {digest}  {entry}"] if line.startswith("files ")
+                                                and line != "files end" else [line] for line in lines), []))
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and f"'{digest}  {entry}', which is not one of the run's" in done.error_line, done.error_line
+
+
+def test_a_fresh_run_removes_the_checkpoints_in_its_folder_before_its_first_step(tmp_path):
+    """A copied folder with another run's checkpoints, a run of other inputs into it killed before
+    its own first checkpoint: nothing there can be continued (was: rows of both runs, exit 0)."""
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    assert len(list(folder.glob("checkpoint-?.txt"))) == 2
+    (folder / "history.csv").unlink()  # so that the kill waits for the second run's rows
+    killed_driver(folder, 30, ("-E1", "900", "-checkpointSeconds", "0"), driver=DRIVER[:-2])
+    assert not list(folder.glob("checkpoint-*"))
+    done = restarted(folder, "-E1", "900")
+    assert done.returncode == 3 and "holds no whole checkpoint" in done.error_line, done.error_line
+
+
+def test_a_checkpoint_with_its_step_changed_is_not_taken(tmp_path):
+    """Both frame lines say another step: the seal no longer matches; sealed again, the history's
+    digest does not (was: exit 0 and a wrong final state)."""
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    checkpoints = sorted(folder.glob("checkpoint-?.txt"))
+    for checkpoint in checkpoints:
+        lines = checkpoint.read_text().splitlines()
+        step = int(lines[0].split()[1])
+        lines[0], lines[-1] = f"checkpoint {step - 50}", f"end {step - 50}"
+        checkpoint.write_text("\n".join(lines) + "\n")
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and "does not match its seal" in done.error_line, done.error_line
+    for checkpoint in checkpoints:
+        resealed(checkpoint, lambda lines: lines)
+    done = restarted(folder, out=tmp_path / "o2")
+    assert done.returncode == 3 and "rows are not those of its checkpoint" in done.error_line, done.error_line
+
+
+def value_lines(lines: list[str]) -> list[int]:
+    """The lines of a checkpoint's state arrays (after the layout line, tab-indented values)."""
+    start = lines.index("state-3")
+    return [j for j in range(start, len(lines)) if lines[j].startswith("\t")]
+
+
+def first_value(lines: list[str], which: int, text: str) -> list[str]:
+    """The checkpoint's lines with the first value of state line `which` written as `text`."""
+    j = value_lines(lines)[which]
+    return lines[:j] + ["\t".join(["", text, *lines[j].split("\t")[2:]])] + lines[j + 1:]
+
+
+@pytest.mark.parametrize("damage, words", [
+    (lambda lines: lines[:value_lines(lines)[5]] + lines[value_lines(lines)[5] + 1:], "cannot be read"),
+    (lambda lines: first_value(lines, 3, "nan"), "cannot be read"),
+    (lambda lines: first_value(lines, 0, "1e999"), "cannot be read"),
+], ids=["line missing", "nan", "overflow"])
+def test_a_damaged_checkpoint_sealed_again_is_refused_with_what_is_wrong(tmp_path, damage, words):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        resealed(checkpoint, damage)
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and "is damaged" in done.error_line and words in done.error_line, done.error_line
+
+
+def test_a_checkpoint_cut_short_is_refused_saying_so(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        checkpoint.write_bytes(checkpoint.read_bytes()[:-4000])
+    done = restarted(folder)
+    assert done.returncode == 3 and done.error_line.count("cut short") == 2, done.error_line
+
+
+def test_a_file_of_the_restart_folder_changed_since_its_checkpoint_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    state = folder / "state_0120.txt"
+    state.write_text(state.read_text().replace("1", "2", 1))
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and "files differ from those its checkpoint" in done.error_line, done.error_line
+
+
+def test_a_checkpoint_of_another_run_identity_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 100, ("-runIdentity", "a" * 64))
+    done = restarted(folder, "-runIdentity", "b" * 64)
+    assert done.returncode == 3 and "by other code or from other inputs" in done.error_line, done.error_line
+    done = restarted(folder, "-runIdentity", "a" * 64)
+    assert done.returncode == 0, done.error_line
+
+
+@pytest.mark.parametrize("value", ["abc", "A" * 64, "0" * 63 + "g", "../" + "0" * 61])
+def test_a_run_identity_that_is_no_sha256_is_refused(tmp_path, value):
+    done = run_script(MAIN, ["-N", "40", "-runIdentity", value, "-out", tmp_path / "run"])
+    assert done.returncode == 3 and "parameter runIdentity" in done.error_line, done.error_line
 
 
 def test_a_folder_without_a_whole_checkpoint_is_refused(tmp_path):
@@ -280,3 +405,36 @@ def test_a_restart_factorizes_each_matrix_once_before_its_steps(tmp_path):
     done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder, "-v", 3])
     assert done.returncode == 0, done.error_line
     assert done.stdout.split("\nstep ", 1)[0].count("fac_numeric CHOLMoD") == 4
+
+
+@pytest.fixture(scope="module")
+def killed(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("killed") / "run"
+    killed_driver(folder, 300)
+    return folder
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kind=st.sampled_from(["drop", "repeat", "swap"]), where=st.integers(0, 10**6), reseal=st.booleans())
+def test_a_checkpoint_with_lines_removed_or_repeated_is_refused_or_gives_the_uninterrupted_run(
+        tmp_path_factory, uninterrupted, killed, kind, where, reseal):
+    """Never a third thing: exit 3 with a message, or the files of the run never interrupted."""
+    folder = tmp_path_factory.mktemp("case") / "run"
+    shutil.copytree(killed, folder)
+
+    def change(lines):
+        j = 1 + where % (len(lines) - 2)
+        return {"drop": lines[:j] + lines[j + 1:], "repeat": lines[:j + 1] + lines[j:],
+                "swap": lines[:j] + [lines[j + 1], lines[j]] + lines[j + 2:]}[kind]
+
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        if reseal:
+            resealed(checkpoint, change)
+        else:
+            lines = checkpoint.read_text().splitlines()
+            checkpoint.write_text("\n".join(change(lines[:-2]) + lines[-2:]) + "\n")
+    done = restarted(folder)
+    if done.returncode == 0:
+        same_results(uninterrupted, folder)
+    else:
+        assert done.returncode == 3 and done.error_line.startswith(("restart folder", "checkpoint")), done.error_line

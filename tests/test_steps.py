@@ -68,3 +68,33 @@ def test_pilots_that_never_run_say_why(tmp_path):
     message = str(caught.value)
     assert "no pilots from N = 10 to 10240" in message and "exceeds the explicit elastic bound" in message
     assert "give time.N yourself" in message
+
+
+def test_a_target_beyond_the_largest_n_says_the_n_it_needs_and_the_cap(monkeypatch, tmp_path):
+    """An error model of order 1 with error 1e-3 at N = 40 needs N = 40·(1e-3/1e-12) = 4e10 for
+    1e-12 (was: "N = -1.48431e+09 is out of range", an integer overflow in the driver)."""
+    from orchestrate import steps
+
+    model = {"firstPilot": 10, "finestPilotError": 1e-3, "orderUsed": 1.0, "schemeOrder": 1}
+    monkeypatch.setattr(steps, "time_error_model", lambda scene, work, cache: model)
+    scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-12})
+    with pytest.raises(steps.StepsError, match=r"needs N = 40,000,000,000 steps, above the largest N, 10,000,000: "
+                                               r"give time.targetError >= 4e-09"):
+        steps.choose_steps(scene, tmp_path)
+    scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-300})
+    with pytest.raises(steps.StepsError, match="needs N = inf steps"):
+        steps.choose_steps(scene, tmp_path)
+
+
+def test_a_pilot_mesh_that_cannot_be_made_is_said_to_be_the_rule_s(monkeypatch, tmp_path):
+    from orchestrate import runner, steps
+    from orchestrate.mesh import MeshError
+
+    def unmeshable(*args, **kwargs):
+        raise MeshError("body1: gmsh made no triangles")
+
+    monkeypatch.setattr(runner, "run", unmeshable)
+    scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-3, "body1.mesh.n": 24})
+    with pytest.raises(steps.StepsError, match=r"one level coarser than the scene's \(body1.mesh.n = 12, "
+                                               r"body2.mesh.n = 16\), and those cannot be meshed: body1: gmsh"):
+        steps.pilot(scene, 20, tmp_path / "pilot", None)

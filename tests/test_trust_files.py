@@ -1,0 +1,208 @@
+"""A file is trusted only once this program checked it (issue "Trust no file ...", items 3, 6, 7):
+the solver's identity is derived from its sources, so no change of code is a "same run"; a run
+folder is read only through a manifest that names exactly its files; a checkpoint is taken only
+when its seal matches, and only by a run of its identity."""
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from orchestrate import load_result, run
+from orchestrate.freefem import REPO
+from orchestrate.identity import program_files, solver_identity
+from orchestrate.manifest import IncompleteRun
+from orchestrate.results import Result
+from orchestrate.runner import RunError, checkpoint_step, inputs_of, sealed_checkpoint
+from orchestrate.scene import Scene
+
+PAPER = REPO / "scenes" / "paper.toml"
+STATES = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False,
+          "output.times": [0.25, 0.5, 1.0], "output.fields": ["bodies", "contact", "state"]}
+
+
+# --- 3. the solver's identity is derived ---------------------------------------------------------
+
+@pytest.fixture
+def edp_copy(tmp_path):
+    copy = tmp_path / "edp"
+    shutil.copytree(REPO / "edp", copy, ignore=shutil.ignore_patterns("*.o", "*.log"))
+    return copy
+
+
+@pytest.mark.parametrize("change", [
+    lambda edp: (edp / "plugins" / "damagesource.cpp").write_text(
+        (edp / "plugins" / "damagesource.cpp").read_text().replace("0.5", "0.25", 1)),
+    lambda edp: (edp / "plugins" / "stresses.so").write_bytes((edp / "plugins" / "stresses.so").read_bytes() + b"\0"),
+    lambda edp: (edp / "lib" / "parameters.md").write_text((edp / "lib" / "parameters.md").read_text() + "\n"),
+    lambda edp: (edp / "lib" / "damage.idp").write_text((edp / "lib" / "damage.idp").read_text() + "// a comment\n"),
+], ids=["plugin source", "built plugin", "parameter table", "library"])
+def test_every_change_of_the_solver_s_files_changes_its_identity(edp_copy, change):
+    before = solver_identity(edp_copy / "main.edp")
+    change(edp_copy)
+    assert solver_identity(edp_copy / "main.edp") != before
+
+
+def test_a_new_library_or_plugin_enters_the_identity_with_no_edit(edp_copy):
+    """A library included from the driver and the plugin it loads are in the identity as soon as
+    the driver names them; a tool script beside the libraries is not part of the program."""
+    before = solver_identity(edp_copy / "main.edp")
+    (edp_copy / "tools" / "solvers.edp").write_text("// a tool, not included by the driver\n")
+    assert solver_identity(edp_copy / "main.edp") == before
+    (edp_copy / "lib" / "glue.idp").write_text('load "gluesource"\n')
+    (edp_copy / "plugins" / "gluesource.cpp").write_text("// a plugin\n")
+    assert solver_identity(edp_copy / "main.edp") != before  # lib/ is read: a data file beside the libraries
+    main = edp_copy / "main.edp"
+    main.write_text(main.read_text().replace('include "lib/checkpoint.idp"\n',
+                                             'include "lib/checkpoint.idp"\ninclude "lib/glue.idp"\n'))
+    files = program_files(main)
+    assert edp_copy.resolve() / "lib" / "glue.idp" in files
+    assert edp_copy.resolve() / "plugins" / "gluesource.cpp" in files and \
+        edp_copy.resolve() / "plugins" / "gluesource.so" in files
+
+
+def test_a_run_s_inputs_hold_the_solver_s_identity():
+    assert inputs_of(Scene.load(PAPER))["solver"] == solver_identity()
+
+
+# --- 6, 7. readers take only what the manifest lists ---------------------------------------------
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    parent = tmp_path_factory.mktemp("runs")
+    first = run(PAPER, parent / "a", STATES, progress=False)
+    second = run(PAPER, parent / "b", {**STATES, "time.N": 40}, progress=False)
+    return first.folder, second.folder
+
+
+@pytest.fixture
+def copy_of(tmp_path, two_runs):
+    def copied(index: int) -> Path:
+        target = tmp_path / f"run{index}"
+        shutil.copytree(two_runs[index], target)
+        return target
+    return copied
+
+
+def test_a_state_file_the_manifest_does_not_list_is_not_read(copy_of, two_runs):
+    """An extra state file from another run (was: a row more in compare, another maximum
+    ‖β_A − β_B‖, and load_result passed)."""
+    folder = copy_of(0)
+    shutil.copy(two_runs[1] / "state_0010.txt", folder / "state_0015.txt")
+    with pytest.raises(IncompleteRun, match="not in the manifest: state_0015.txt"):
+        load_result(folder)
+    assert "state_0015.txt" not in Result(folder).files
+    rows = Result(folder).compare(Result(two_runs[1])).rows
+    assert [row["t"] for row in rows] == pytest.approx([0.25, 0.5, 1.0])
+
+
+def test_an_emptied_manifest_and_a_cut_history_are_refused(copy_of):
+    folder = copy_of(0)
+    history = folder / "history.csv"
+    history.write_text("\n".join(history.read_text().splitlines()[:5]) + "\n")
+    (folder / "manifest.json").write_text('{"files": {}}')
+    with pytest.raises(IncompleteRun, match="not a run's manifest"):
+        load_result(folder)
+
+
+def forged(folder: Path, change) -> None:
+    """The manifest made to match the folder after `change(entries)`: what a forger writes."""
+    from orchestrate.manifest import digest
+
+    manifest = json.loads((folder / "manifest.json").read_text())
+    change(manifest["files"])
+    for name in manifest["files"]:
+        if (folder / name).is_file():
+            manifest["files"][name] = {"bytes": (folder / name).stat().st_size, "sha256": digest(folder / name)}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+
+
+def test_a_manifest_forged_to_match_a_cut_history_is_refused_by_the_row_count(copy_of):
+    folder = copy_of(0)
+    history = folder / "history.csv"
+    history.write_text("\n".join(history.read_text().splitlines()[:5]) + "\n")
+    forged(folder, lambda entries: None)
+    with pytest.raises(IncompleteRun, match="4 rows of 20 steps"):
+        load_result(folder)
+
+
+def test_a_manifest_without_a_file_run_json_names_is_refused(copy_of):
+    folder = copy_of(0)
+    (folder / "state_0010.txt").unlink()
+    forged(folder, lambda entries: entries.pop("state_0010.txt"))
+    with pytest.raises(IncompleteRun, match="files run.json names"):
+        load_result(folder)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(edit=st.sampled_from(["drop", "add", "bytes", "sha", "rename", "link", "folder"]), pick=st.integers(0, 10**6),
+       name=st.sampled_from(["state_0005.txt", "../x", "body3_0010.vtu", "run.log.1", "extra.csv", "a/b"]))
+def test_a_folder_that_differs_from_its_manifest_in_any_way_is_refused(two_runs, tmp_path, edit, pick, name):
+    """Entries removed, added, renamed or with other numbers, a file a link, a folder inside:
+    each is refused, never loaded as the run."""
+    folder = tmp_path / f"case{pick}"
+    shutil.copytree(two_runs[0], folder)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    entries = manifest["files"]
+    chosen = sorted(entries)[pick % len(entries)]
+    if edit == "drop":
+        entries.pop(chosen)
+    elif edit == "add":
+        entries[name] = dict(entries[chosen])
+    elif edit == "bytes":
+        entries[chosen]["bytes"] += 1 + pick % 7
+    elif edit == "sha":
+        entries[chosen]["sha256"] = f"{pick:064x}"[-64:]
+    elif edit == "rename":
+        entries[name] = entries.pop(chosen)
+    elif edit == "link":
+        target = folder.parent / f"target{pick}"
+        shutil.copy(folder / chosen, target)
+        (folder / chosen).unlink()
+        (folder / chosen).symlink_to(target)
+    elif edit == "folder":
+        (folder / "pilots").mkdir()
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(IncompleteRun):
+        load_result(folder)
+    shutil.rmtree(folder)
+
+
+# --- checkpoints as the runner reads them ---------------------------------------------------------
+
+def sealed(lines: list[str], step: int, identity: str = "f" * 64) -> bytes:
+    import hashlib
+
+    body = "".join(line + "\n" for line in [f"checkpoint {step}", f"run {identity}", *lines])
+    return (body + f"seal {hashlib.sha256(body.encode()).hexdigest()}\nend {step}\n").encode()
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(lines=st.lists(st.text(st.characters(blacklist_categories=["Cs", "Cc"]), max_size=20), min_size=1, max_size=8),
+       step=st.integers(1, 10**6), cut=st.integers(0, 10**6), kind=st.sampled_from(["drop", "repeat", "cut", "step"]))
+def test_a_checkpoint_is_whole_exactly_when_its_seal_matches(tmp_path, lines, step, cut, kind):
+    path = tmp_path / "checkpoint-a.txt"
+    data = sealed(lines, step)
+    path.write_bytes(data)
+    assert sealed_checkpoint(path) == (step, "f" * 64) and checkpoint_step(tmp_path) == step
+    rows = data.decode().split("\n")[:-1]
+    j = cut % len(rows)
+    changed = {"drop": rows[:j] + rows[j + 1:], "repeat": rows[:j + 1] + rows[j:],
+               "step": [f"checkpoint {step + 1}", *rows[1:-1], f"end {step + 1}"]}.get(kind)
+    damaged = data[:cut % len(data)] if kind == "cut" else ("\n".join(changed) + "\n").encode()
+    path.write_bytes(damaged)
+    assert sealed_checkpoint(path) is None and checkpoint_step(tmp_path) == 0
+
+
+def test_resume_refuses_a_checkpoint_of_another_run_identity(tmp_path):
+    """inputs.json says these inputs, the checkpoint another run's: refused, not continued."""
+    scene = Scene.load(PAPER, STATES)
+    inputs = inputs_of(scene)
+    partial = tmp_path / "run.partial"
+    partial.mkdir()
+    (partial / "inputs.json").write_text(json.dumps(inputs))
+    (partial / "checkpoint-a.txt").write_bytes(sealed(["parameters 0"], 7, "0" * 64))
+    with pytest.raises(RunError, match="a checkpoint of a run of other inputs"):
+        run(scene, tmp_path / "run", resume=True, progress=False)
