@@ -1,19 +1,24 @@
 """The child process of orchestrate/mesh.py: mesh one .geo with gmsh's Python API and write it.
 
-    python orchestrate/gmsh_mesher.py SOURCE.geo '{"n": 24}' REFINE TARGET.msh
+    python orchestrate/gmsh_mesher.py SOURCE.geo '{"n": 24}' REFINE TARGET.msh LIMITS
 
 It imports gmsh and the standard library only, and exits with gmsh's error lines as its message.
-Before gmsh reads the source, the process confines itself with Landlock where the kernel offers it
-(Linux 5.13 and later, when enabled): from then on it and its children may start no program,
-read no file but the checked copies, write none but the target, open no TCP connection and
-signal no other process. The .geo check (orchestrate/geo.py) refuses what gmsh
-could do otherwise; this holds even for what the check might miss.
+A .geo is code in gmsh's language, which can run programs and read and write files: before gmsh
+reads the source, the process confines itself with Landlock where the kernel offers it (Linux
+5.13 and later, when enabled): from then on it and its children may start no program, read no
+file but the sources' copies, write none but the target, open no TCP connection and signal no
+other process, and its environment is empty (GetEnv reads nothing). Its resources are bounded
+too, whatever the .geo asks (LIMITS, a JSON object): CPU seconds, address space and file size by
+rlimits (the parent adds the wall clock), and the node count the .geo's sizes give, estimated from
+its boundary mesh before the surfaces are meshed.
 """
 from __future__ import annotations
 
 import ctypes
 import json
 import os
+import resource
+import signal
 import sys
 from pathlib import Path
 
@@ -47,7 +52,8 @@ def landlock_abi() -> int:
 def confine(target: Path, sources: Path) -> bool:
     """From now on this process and its children start no program, read only beneath `sources`
     (the checked copies), write only the existing file `target`, open no TCP connection and signal
-    no other process; False when the kernel has no Landlock (the .geo check is then the only guard)."""
+    no other process; False when the kernel has no Landlock (orchestrate/mesh.py meshes only
+    trusted sources then)."""
     libc = system_library()
     abi = landlock_abi()
     if abi < 1:
@@ -77,7 +83,72 @@ def confine(target: Path, sources: Path) -> bool:
     return True
 
 
-def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> None:
+# Exit codes the parent turns into messages naming the scene's fields.
+TOO_MANY_NODES, NOT_P1_TRIANGLES = 3, 4
+TRIANGLE, SEGMENT = 2, 1  # gmsh's element types of 3-node triangles and 2-node lines, all the solver reads
+EQUILATERAL_NODES = 2 / 3 ** 0.5  # nodes per h² of area in a mesh of equilateral triangles of side h
+
+
+def bound_resources(limits: dict) -> None:
+    """CPU seconds (SIGXCPU ends the process, SIGKILL a second later), address space (an
+    allocation beyond it fails) and the size of any file written (SIGXFSZ), none above a hard
+    limit already set."""
+    for kind, value in ((resource.RLIMIT_CPU, limits["seconds"]), (resource.RLIMIT_AS, limits["memory"]),
+                        (resource.RLIMIT_FSIZE, limits["fileSize"])):
+        _, hard = resource.getrlimit(kind)
+        capped = (lambda wanted: wanted) if hard == resource.RLIM_INFINITY else (lambda wanted: min(wanted, hard))
+        soft = capped(int(value))
+        resource.setrlimit(kind, (soft, capped(soft + 1) if kind == resource.RLIMIT_CPU else soft))
+    signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # Python ignores it, and gmsh would go on with a file cut short
+
+
+def estimated_nodes() -> tuple[int, float, float]:
+    """The nodes gmsh's surface mesh will have, from the boundary mesh already made: the area the
+    surfaces' boundaries enclose over the square of their mean segment length, or of the size no
+    element exceeds (Mesh.MeshSizeMax times Mesh.MeshSizeFactor) where that is smaller; with that
+    area and spacing. An estimate: a size field finer inside than on the boundary is met by the
+    resource limits only, and a transfinite surface, which keeps its boundary's spacing whatever
+    MeshSizeMax says, is overestimated when that is smaller."""
+    import gmsh
+
+    tags, coordinates, _ = gmsh.model.mesh.getNodes()
+    point = {tag: (coordinates[3 * i], coordinates[3 * i + 1]) for i, tag in enumerate(tags)}
+    area = length = segments = 0.0
+    for _, surface in gmsh.model.getEntities(2):
+        enclosed = 0.0
+        for _, curve in gmsh.model.getBoundary([(2, surface)], combined=False, oriented=True):
+            types, _, nodes = gmsh.model.mesh.getElements(1, abs(curve))
+            for kind, pairs in zip(types, nodes):
+                step = gmsh.model.mesh.getElementProperties(kind)[3]
+                for i in range(0, len(pairs), step):
+                    (xa, ya), (xb, yb) = point[pairs[i]], point[pairs[i + 1]]
+                    enclosed += (1 if curve > 0 else -1) * (xa * yb - xb * ya) / 2
+                    length += ((xb - xa) ** 2 + (yb - ya) ** 2) ** 0.5
+                    segments += 1
+        area += abs(enclosed)
+    largest = gmsh.option.getNumber("Mesh.MeshSizeMax") * gmsh.option.getNumber("Mesh.MeshSizeFactor")
+    spacing = min(length / segments, largest) if segments else 0.0
+    return (int(EQUILATERAL_NODES * area / spacing ** 2) if spacing else 0), area, spacing
+
+
+def require_linear_triangles() -> None:
+    """The solver reads 3-node triangles and 2-node boundary lines (FreeFEM's gmshload, P1): a
+    .geo that makes other elements is refused naming them and the options that make them."""
+    import gmsh
+
+    others = {gmsh.model.mesh.getElementProperties(kind)[0] for dim, wanted in ((2, TRIANGLE), (1, SEGMENT))
+              for kind in gmsh.model.mesh.getElementTypes(dim) if kind != wanted}
+    if others:
+        options = [f"{name} = {gmsh.option.getNumber(name):g}" for name in ("Mesh.ElementOrder", "Mesh.RecombineAll")
+                   if gmsh.option.getNumber(name) != (1 if name == "Mesh.ElementOrder" else 0)]
+        print(f"its mesh has {', '.join(sorted(others))} elements ({', '.join(options) or 'a Recombine command'}): "
+              "the solver takes 3-node triangles only (Mesh.ElementOrder = 1, no Recombine, Mesh.RecombineAll = 0)",
+              file=sys.stderr)
+        sys.exit(NOT_P1_TRIANGLES)
+
+
+def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path, limits: dict) -> None:
+    bound_resources(limits)
     import gmsh
 
     # DefineConstant values take effect only as -setnumber arguments: gmsh.parser.setNumber is
@@ -90,7 +161,10 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> 
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.logger.start()
         target.touch()  # the one file it may write, made before the confinement
+        if gmsh.use_numpy:  # gmsh's arrays come through numpy.ctypeslib, which numpy loads when first used
+            import numpy.ctypeslib  # noqa: F401  (here: once confined, no module can be read)
         confine(target, source.parent)
+        os.environ.clear()  # unsets them for gmsh's getenv too
         gmsh.open(str(source))
         # The file is the one the runner reads: one gmsh 2.2 text file, whatever the .geo set.
         gmsh.option.setNumber("Mesh.MshFileVersion", 2.2)
@@ -99,12 +173,18 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> 
         errors = [line for line in gmsh.logger.get() if line.startswith("Error")]
         if errors:
             raise RuntimeError("; ".join(errors))
+        gmsh.model.mesh.generate(1)
+        nodes, area, spacing = estimated_nodes()
+        if nodes * 4 ** refine > limits["nodes"]:
+            print(json.dumps({"nodes": nodes * 4 ** refine, "area": area, "spacing": spacing}), file=sys.stderr)
+            sys.exit(TOO_MANY_NODES)
         gmsh.model.mesh.generate(2)
         for _ in range(refine):
             gmsh.model.mesh.refine()
+        require_linear_triangles()
         gmsh.write(str(target))
     except Exception as error:
-        log = "; ".join(line for line in gmsh.logger.get() if "Error" in line) or str(error)
+        log = "; ".join(line for line in gmsh.logger.get() if "Error" in line) or str(error) or type(error).__name__
         sys.exit(log)
     finally:
         gmsh.logger.stop()
@@ -112,4 +192,4 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path) -> 
 
 
 if __name__ == "__main__":
-    mesh(Path(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), Path(sys.argv[4]))
+    mesh(Path(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), Path(sys.argv[4]), json.loads(sys.argv[5]))

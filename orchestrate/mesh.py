@@ -1,12 +1,15 @@
 """Meshes of scene bodies, made with gmsh's Python API, cached by content and checked whole.
 
-The sources are read once and checked (orchestrate/geo.py: a .geo is gmsh code, and gmsh may not
-run programs or touch other files because a scene says so); gmsh meshes a private copy of the
-checked text. The cache key is that text and the text of the files it includes, the -setnumber
-values and gmsh's version, so an edited source or another gmsh gives a new mesh and never a stale
-one. A body given only by its n uses the committed <geo>-n<n>.msh of meshes/ when it exists, the
-rule edp/main.edp follows, so a scene and the driver run by hand mesh the paper's scene
-identically.
+A .geo is code in gmsh's language (it can run programs, read and write files, loop forever): the
+sources and the files they include are read once (orchestrate/geo.py) and gmsh meshes a private
+copy of that text in a child process confined by Landlock and bounded in time, memory, file size
+and nodes (gmsh_mesher.py, `MeshLimits`). Where the kernel has no Landlock only trusted sources
+are meshed: the project's own meshes/ (reviewed and committed with the program, which runs with
+the user's rights anyway) and a user's with --trust-geo. The cache key is that text and the text
+of the files it includes, the -setnumber values and gmsh's version, so an edited source or another
+gmsh gives a new mesh and never a stale one. A body given only by its n uses the committed
+<geo>-n<n>.msh of meshes/ when it exists, the rule edp/main.edp follows, so a scene and the driver
+run by hand mesh the paper's scene identically.
 
 gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
 .msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
@@ -22,23 +25,54 @@ import math
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import threading
-from dataclasses import dataclass
+import unicodedata
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from orchestrate.freefem import REPO, dying_with_parent, stop_group
-from orchestrate.geo import GeoFile, copy_name, read_sources, write_copies
+from orchestrate.geo import PROJECT_MESHES, GeoError, GeoFile, copy_name, read_sources, write_copies
+from orchestrate.gmsh_mesher import NOT_P1_TRIANGLES, TOO_MANY_NODES, landlock_abi
 
 CACHE = REPO / "results" / ".cache" / "meshes"
 BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
+MSH_BYTES_PER_NODE = 120  # a gmsh 2.2 text file per node (its triangles included): 83 MB at 741 038 nodes
+GMSH_ADDRESS_SPACE = 2 ** 30  # the mesher's address space before it meshes (python, gmsh, threads: 0.4 GB measured)
+# The largest mesh a run fits in this machine's 23 GiB is about 2.9 M nodes (BYTES_PER_NODE). gmsh's
+# frontal-Delaunay meshing of rectangle.geo took 15 s for 0.19 M nodes, 96 s for 0.74 M and 731 s for
+# 2.96 M (550 s of CPU, 4.5 GB resident, a 352 MB file; 2 cores shared with a test suite): the default
+# leaves such a mesh 2.5 times that, so only a .geo that would never finish meets it.
+TIME_LIMIT = 1800.0
 
 
 class MeshError(RuntimeError):
     """gmsh could not mesh a body, or a mesh file is not whole."""
+
+
+class TooLarge(MeshError):
+    """A run whose meshes or memory would not fit this machine, refused before it starts."""
+
+
+@dataclass(frozen=True)
+class MeshLimits:
+    """What one mesher may use, and how messages name it: `body` (body1, body2) as in the scene,
+    its timeLimit (wall clock and CPU seconds), and whether an unconfined gmsh may read the body's
+    .geo on a kernel without Landlock (--trust-geo). Memory, file size and nodes follow from the
+    memory this machine has free: no more nodes than a run could hold (BYTES_PER_NODE)."""
+    body: str = "bodyN"
+    seconds: float = TIME_LIMIT
+    trusted: bool = False
+
+    def resources(self) -> dict:
+        free = memory_available() or os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        nodes = free // BYTES_PER_NODE
+        return {"seconds": math.ceil(self.seconds), "memory": free + GMSH_ADDRESS_SPACE,
+                "fileSize": 2 * nodes * MSH_BYTES_PER_NODE, "nodes": nodes, "free": free}
 
 
 DEFINE_CONSTANT = re.compile(r"DefineConstant\s*\[(.*?)\]\s*;", re.DOTALL)
@@ -56,14 +90,17 @@ def geo_constants(source: Path) -> list[str]:
     return names
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MeshInfo:
-    """What a whole gmsh 2.2 file holds: node and triangle counts, and the number of boundary
-    segments of each physical line tag (the FreeFEM labels)."""
+    """What a whole gmsh 2.2 file holds: node and triangle counts, the number of boundary
+    segments of each physical line tag (the FreeFEM labels), the smallest triangle area, each
+    tag's segments (their end points, k × 2 × 2) and, for a tag with a node in no triangle, where."""
     nodes: int
     triangles: int
     segments: dict[int, int]
     smallest_area: float = math.inf
+    curves: dict[int, np.ndarray] = field(default_factory=dict)
+    stray: dict[int, tuple[float, float]] = field(default_factory=dict)
 
 
 _whole: dict[tuple, MeshInfo] = {}  # files read whole, by (device, inode, size, modification time)
@@ -120,15 +157,30 @@ def parse_msh(path: Path) -> MeshInfo:
         raise fault("a node line without 3 finite coordinates")
     fields, start, counts = element_fields(element_block, elements, fault)
     kind = fields[start + 1]
-    tags, per_tag = np.unique(fields[start[kind == 1] + 3], return_counts=True)
-    triangle_end = (start + counts)[kind == 2]
-    corners = np.stack([fields[triangle_end - 3 + c] for c in range(3)], axis=1)
+    line_tags = fields[start[kind == 1] + 3]
+    tags, per_tag = np.unique(line_tags, return_counts=True)
     table = coordinates.reshape(nodes, 4)
-    where = rows_of(table[:, 0], corners, fault)
+    where = rows_of(table[:, 0], corner_nodes(fields, start, counts, kind == 2, 3), fault)
     a, b, c = (table[where[:, j], 1:3] for j in range(3))
     areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    return MeshInfo(nodes, len(corners), dict(zip(tags.tolist(), per_tag.tolist())),
-                    float(areas.min()) if len(corners) else math.inf)
+    ends = rows_of(table[:, 0], corner_nodes(fields, start, counts, kind == 1, 2), fault)
+    in_triangle = np.zeros(nodes, dtype=bool)
+    in_triangle[where.ravel()] = True
+    curves, stray = {}, {}
+    for tag in tags.tolist():
+        mine = ends[line_tags == tag]
+        curves[tag] = table[mine, 1:3]
+        loose = mine[~in_triangle[mine]]
+        if loose.size:
+            stray[tag] = tuple(table[loose[0], 1:3].tolist())
+    return MeshInfo(nodes, len(where), dict(zip(tags.tolist(), per_tag.tolist())),
+                    float(areas.min()) if len(where) else math.inf, curves, stray)
+
+
+def corner_nodes(fields: np.ndarray, start: np.ndarray, counts: np.ndarray, chosen: np.ndarray, corners: int) -> np.ndarray:
+    """The node numbers of the chosen elements (each line's last `corners` fields), one row each."""
+    end = (start + counts)[chosen]
+    return np.stack([fields[end - corners + c] for c in range(corners)], axis=1).reshape(-1, corners)
 
 
 def element_fields(block: bytes, elements: int, fault) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -314,10 +366,11 @@ def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0) -> s
 
 
 def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None,
-              announce=None) -> Path:
+              announce=None, limits: MeshLimits = MeshLimits()) -> Path:
     """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them), its
     triangles split in four `refine` times (red refinement: the meshes are nested), read back
-    whole; announce() is called when gmsh is to make it (none of a committed or cached mesh)."""
+    whole; announce() is called when gmsh is to make it (none of a committed or cached mesh),
+    under `limits`."""
     committed = committed_mesh(source, numbers, refine)
     if committed is not None:
         read_msh(committed)
@@ -337,7 +390,7 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     if announce:
         announce()
     try:
-        generate(files, numbers, refine, partial)
+        generate(files, numbers, refine, partial, limits)
         read_msh(partial)
         os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     finally:
@@ -369,49 +422,94 @@ def stop_meshing() -> None:
             stop_group(process)
 
 
-def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, target: Path) -> None:
-    """Mesh the checked sources, from their private copies, in a fresh Python process: gmsh keeps
-    every -setnumber value for the life of the process (initialize/finalize do not reset them), so
-    meshing in-process would give a later body the constants of an earlier one that its own scene
-    leaves at their defaults. The child dies with this process."""
+def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, target: Path,
+             limits: MeshLimits = MeshLimits()) -> None:
+    """Mesh the sources, from their private copies, in a fresh Python process under `limits`:
+    gmsh keeps every -setnumber value for the life of the process (initialize/finalize do not
+    reset them), so meshing in-process would give a later body the constants of an earlier one
+    that its own scene leaves at their defaults. The child dies with this process."""
+    require_confinement(files, limits)
     # gmsh_mesher.py is run as a file, not as a module of this package, so the child imports gmsh
     # and the standard library only (the package's imports would cost it 0.45 s).
     child = Path(__file__).with_name("gmsh_mesher.py")
     folder = target.with_suffix(".geo")  # beside the partial mesh: removed with it if this process is killed
     folder.mkdir()
+    resources = limits.resources()
     try:
         command = [sys.executable, str(child), str(write_copies(files, folder)), json.dumps(numbers), str(refine),
-                   str(target)]
+                   str(target), json.dumps(resources)]
         process = subprocess.Popen(dying_with_parent(command), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                   text=True, start_new_session=True)
+                                   text=True, errors="replace", start_new_session=True)
         with _children_lock:
             _children.add(process)
         try:
+            _, stderr = process.communicate(timeout=limits.seconds)
+        except subprocess.TimeoutExpired:
+            stop_group(process)
             _, stderr = process.communicate()
+            stderr = None
         finally:
             with _children_lock:
                 _children.discard(process)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    if process.returncode != 0:
-        target.unlink(missing_ok=True)
-        for index, file in enumerate(files):  # gmsh names the copies; the user knows the sources
-            stderr = stderr.replace(str(folder / copy_name(index, file.path)), str(file.path))
-        lines = stderr.strip().splitlines()
-        reason = lines[-1] if lines else (f"killed by signal {-process.returncode}" if process.returncode < 0
-                                          else f"exit code {process.returncode}")
-        raise MeshError(f"gmsh could not mesh {files[0].path.name} with {numbers}: {reason}")
+    if stderr is not None and process.returncode == 0:
+        return
+    target.unlink(missing_ok=True)
+    for index, file in enumerate(files):  # gmsh names the copies; the user knows the sources
+        stderr = stderr and stderr.replace(str(folder / copy_name(index, file.path)), str(file.path))
+    raise failure(files[0].path, numbers, refine, limits, resources, process.returncode, stderr)
 
 
-def estimated_nodes(source: Path, numbers: dict[str, float], refine: int, cache: Path | None = None) -> int:
-    """Nodes of a mesh before making it: a red refinement multiplies the nodes by about 4, and
-    every project .geo has its size ∝ 1/n, so a mesh at a small n0 scales by (n/n0)²."""
-    n = int(numbers["n"])
-    if refine == 0 and n <= 256:
-        return 0  # small enough to make and count
-    n0 = n if n <= 256 else max(1, n // 2 ** int(np.ceil(np.log2(n / 64))))
-    probe = read_msh(body_mesh(source, {**numbers, "n": n0}, 0, cache))
-    return int(probe.nodes * (n / n0) ** 2 * 4 ** refine)
+def require_confinement(files: list[GeoFile], limits: MeshLimits) -> None:
+    """Without Landlock gmsh would run whatever the .geo says with the user's rights: only the
+    project's own sources, or a user's the user vouches for, are meshed there."""
+    if limits.trusted or landlock_abi() >= 1:
+        return
+    foreign = [file.path for file in files if not file.path.is_relative_to(PROJECT_MESHES)]
+    if foreign:
+        raise GeoError(f"{limits.body}.mesh.geo: {foreign[0]} is not one of the project's meshes/ and this kernel "
+                       "has no Landlock (Linux 5.13 and later, enabled), which would confine gmsh: a .geo is gmsh "
+                       "code, which may run programs and read or write any of your files; mesh it only if you trust "
+                       "it, with --trust-geo (orchestrate run, orchestrate sweep)")
+
+
+def failure(source: Path, numbers: dict[str, float], refine: int, limits: MeshLimits, resources: dict,
+            returncode: int, stderr: str | None) -> MeshError:
+    """The message of a mesher that failed or was stopped, naming the limit or field concerned;
+    gmsh's text is the .geo's (its Error lines), so its control characters are shown escaped."""
+    geo = f"{limits.body}'s .geo ({source.name} with {numbers})"
+    time_limit = f"{limits.body}.mesh.timeLimit = {limits.seconds:g} s"
+    if stderr is None:
+        return MeshError(f"{time_limit}: gmsh did not finish meshing {geo} within it; raise it or coarsen the mesh")
+    if returncode == -signal.SIGXCPU:
+        return MeshError(f"{time_limit}: gmsh used that much CPU time without finishing meshing {geo}; raise it or "
+                         "coarsen the mesh")
+    if returncode == -signal.SIGXFSZ:
+        return MeshError(f"gmsh's mesh of {geo} grew beyond {resources['fileSize'] / 1e6:.3g} MB, the file of a mesh "
+                         "this machine's free memory could run: coarsen the mesh")
+    lines = printable(stderr).strip().splitlines()
+    if returncode == TOO_MANY_NODES:
+        found = json.loads(lines[-1])
+        return TooLarge(f"{geo} would give about {found['nodes']:,} nodes (an area of {found['area']:.4g} meshed at "
+                        f"its boundary's spacing {found['spacing']:.3g}{f', refined {refine} times' if refine else ''})"
+                        f"; a run on them needs about {found['nodes'] * BYTES_PER_NODE / 2**30:.1f} GiB and "
+                        f"{resources['free'] / 2**30:.1f} GiB are free: lower {limits.body}.mesh.n or "
+                        f"{limits.body}.mesh.refine, or the .geo's mesh sizes (Mesh.MeshSizeMax, its points' sizes)")
+    if returncode == NOT_P1_TRIANGLES:
+        return MeshError(f"{limits.body}.mesh.geo ({source.name} with {numbers}): {lines[-1]}")
+    if any(word in line for line in lines for word in ("Out of memory", "bad_alloc", "MemoryError")):
+        return MeshError(f"gmsh ran out of the {resources['memory'] / 2**30:.1f} GiB it may use (this machine's free "
+                         f"memory) meshing {geo}: coarsen the mesh")
+    reason = lines[-1] if lines else (f"killed by signal {-returncode}" if returncode < 0 else f"exit code {returncode}")
+    return MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+
+
+def printable(text: str) -> str:
+    """`text` with every control or format character (a terminal's escape sequences, a
+    direction override) written as its Python escape; line ends kept."""
+    return "".join(character if character == "\n" or unicodedata.category(character)[0] != "C"
+                   else character.encode("unicode_escape").decode() for character in text)
 
 
 def memory_available() -> int:

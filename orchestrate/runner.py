@@ -30,10 +30,12 @@ import shutil
 import signal
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
+
+import numpy as np
 
 from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
@@ -57,8 +59,7 @@ class Interrupted(RunError):
     pass
 
 
-class TooLarge(RunError):
-    """A run whose meshes or memory would not fit this machine, refused before it starts."""
+TooLarge = meshing.TooLarge  # a run whose meshes or memory would not fit this machine, refused before it starts
 
 
 @contextmanager
@@ -200,8 +201,9 @@ def inputs_of(scene: Scene) -> dict:
     numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
-    for body in ("body1", "body2"):  # where a .geo lives changes no result: its text is in "meshes"
-        data[body]["mesh"].pop("geo")
+    for body in ("body1", "body2"):  # where a .geo lives changes no result: its text is in "meshes"; nor
+        data[body]["mesh"].pop("geo")  # does the time gmsh may take
+        data[body]["mesh"].pop("timeLimit")
     parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
              "freefemScene": hashlib.sha256(result_code(scene).encode()).hexdigest(),
              "solver": solver_identity(MAIN),
@@ -267,12 +269,13 @@ def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
 
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
         force: bool = False, resume: bool = False, progress: bool | str = "auto", mesh_cache: Path | None = None,
-        solver_flags: tuple = ()) -> Result:
+        solver_flags: tuple = (), trust_geo: bool = False) -> Result:
     """Run a scene (a Scene or a .toml path, with dotted-key overrides) into folder `out`.
     resume: continue the interrupted run in `<out>.partial` from its newest checkpoint when it has
     the same inputs; progress: a bar on stderr or in a notebook, True, False or "auto" (where one
     can be seen: orchestrate/progress.py); mesh_cache: another mesh cache folder (the benchmark's,
-    to time meshing); solver_flags: extra driver flags that change no result (e.g. -measureSolves 10)."""
+    to time meshing); solver_flags: extra driver flags that change no result (e.g. -measureSolves 10);
+    trust_geo: mesh a user's .geo even where no Landlock confines gmsh (orchestrate/mesh.py)."""
     wanted(progress)  # a wrong value is said before anything runs
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
@@ -302,8 +305,9 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():
-                planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar)
-                summary = build(planned, partial, bar, mesh_cache, ("-runIdentity", inputs["digest"], *solver_flags), restart)
+                planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar, trust_geo)
+                summary = build(planned, partial, bar, mesh_cache, ("-runIdentity", inputs["digest"], *solver_flags),
+                                restart, trust_geo)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
@@ -371,22 +375,22 @@ def publish(partial: Path, out: Path) -> None:
         shutil.rmtree(retired)
 
 
-def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgress) -> list[meshing.MeshInfo]:
-    """Both bodies meshed at once (each in a gmsh process of its own), copied into the run folder as
-    body1.msh and body2.msh after their labels and size are checked against the scene."""
+def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgress,
+              trust_geo: bool = False) -> list[meshing.MeshInfo]:
+    """Both bodies meshed at once (each in a gmsh process of its own, under its limits: the first
+    to fail stops the other), copied into the run folder as body1.msh and body2.msh after their
+    labels and size are checked against the scene."""
     bar.phase("meshing")
     bodies = (scene.body1, scene.body2)
     free = meshing.memory_available()
-    nodes = sum(meshing.estimated_nodes(b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache) for b in bodies)
-    if free and nodes * meshing.BYTES_PER_NODE > free:
-        raise TooLarge(f"the meshes would have about {nodes:,} nodes; a run on them needs about "
-                          f"{nodes * meshing.BYTES_PER_NODE / 2**30:.1f} GiB and {free / 2**30:.1f} GiB are free: "
-                          "lower mesh.n or mesh.refine")
     pool = ThreadPoolExecutor(2)
     try:
-        paths = list(pool.map(lambda index, b: meshing.body_mesh(
-            b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache,
-            announce=lambda: bar.phase(f"meshing body {index} (gmsh)")), (1, 2), bodies))
+        futures = [pool.submit(meshing.body_mesh, b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache,
+                               lambda index=index: bar.phase(f"meshing body {index} (gmsh)"),
+                               meshing.MeshLimits(f"body{index}", b.mesh.timeLimit, trust_geo))
+                   for index, b in enumerate(bodies, 1)]
+        wait(futures, return_when=FIRST_EXCEPTION)
+        paths = [future.result() for future in futures]
     except BaseException:
         meshing.stop_meshing()
         raise
@@ -396,6 +400,7 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
     for index, (body, path) in enumerate(zip(bodies, paths), 1):
         info = meshing.read_msh(path)  # read whole when body_mesh took it: not parsed again
         require_labels(body, index, info)
+        require_boundary_curves(body, index, info)
         meshing.hand_over(path, info, folder / f"body{index}.msh")
         infos.append(info)
     constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
@@ -436,8 +441,41 @@ def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
                              f"(its labels: {', '.join(map(str, sorted(info.segments)))})")
 
 
+def require_boundary_curves(body, index: int, info: meshing.MeshInfo) -> None:
+    """A labelled curve must bound the body's triangles (a vertex in none has no equation: FreeFEM
+    meets a singular matrix), and the contact boundary must be one connected curve (the mortar
+    side of body 1 a segment, body 2's a curve facing it); each is refused naming the field."""
+    if info.stray:
+        label, (x, y) = min(info.stray.items())
+        raise SceneError(f"body{index}.mesh.geo: label {label} of body {index}'s mesh is on a curve that bounds none "
+                         f"of its triangles (at ({x:.6g}, {y:.6g})): a Physical Curve must be part of the boundary of "
+                         "the meshed surface, else FreeFEM gets vertices it cannot solve for")
+    contact = body.mesh.contactLabel
+    pieces = curve_pieces(np.concatenate([info.curves.get(label, np.zeros((0, 2, 2))) for label in contact]))
+    if len(pieces) > 1:
+        where = " and ".join(f"({x:.6g}, {y:.6g})" for x, y in pieces[:2])
+        raise SceneError(f"body{index}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}: Γ_C is "
+                         f"{len(pieces)} separate curves in body {index}'s mesh (through {where}): it must be one "
+                         "connected curve (body 1's a straight segment, body 2's a curve facing it); give the pieces "
+                         "labels of their own and name one, or those that meet end to end")
+
+
+def curve_pieces(segments: np.ndarray) -> list[tuple[float, float]]:
+    """A point of each connected piece of a set of segments (k × 2 × 2 end points)."""
+    parent: dict[tuple, tuple] = {}
+
+    def root(point: tuple) -> tuple:
+        while parent.setdefault(point, point) != point:
+            point = parent[point]
+        return point
+
+    for first, second in segments.tolist():
+        parent[root(tuple(first))] = root(tuple(second))
+    return sorted({root(point) for point in list(parent)})
+
+
 def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: bool,
-                  bar: RunProgress = RunProgress()) -> tuple[Scene, dict | None]:
+                  bar: RunProgress = RunProgress(), trust_geo: bool = False) -> tuple[Scene, dict | None]:
     """The scene with its N, and the plan (steps.json) when time.N is "auto": chosen by pilot runs
     (orchestrate/steps.py), or read back when a run of it is continued from its checkpoint."""
     if scene.time.N != "auto":
@@ -450,7 +488,7 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
 
         bar.phase("choosing N (pilot runs)")
         try:
-            plan = choose_steps(scene, folder / "pilots", mesh_cache)
+            plan = choose_steps(scene, folder / "pilots", mesh_cache, trust_geo)
         except StepsError as error:
             raise SceneError(str(error)) from None
         plan_file.write_text(json.dumps(plan, indent=1) + "\n")
@@ -467,13 +505,13 @@ def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, res
 
 
 def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None = None, solver_flags: tuple = (),
-          restart: bool = False) -> dict:
+          restart: bool = False, trust_geo: bool = False) -> dict:
     """Everything of a run inside `folder` (continued from its checkpoint with `restart`);
     returns the summary (without the total wall time)."""
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
-    meshes_of(scene, folder, mesh_cache, bar)
+    meshes_of(scene, folder, mesh_cache, bar, trust_geo)
     timing["meshing"] = time.perf_counter() - clock
     (folder / "scene.idp").write_text(to_freefem_scene(scene))
 
@@ -541,6 +579,13 @@ def add_arguments(parser) -> None:
                         help="after the run, compare its final figures with another run's summary.json (a file or "
                              "a folder holding one) to a relative 1e-8 and exit 1 if one differs: a committed "
                              "result reproduced on this machine")
+    add_trust_geo(parser)
+
+
+def add_trust_geo(parser) -> None:
+    parser.add_argument("--trust-geo", action="store_true",
+                        help="on a kernel without Landlock, mesh the scene's own .geo files all the same: gmsh then "
+                             "runs them unconfined, and a .geo can run programs and read or write your files")
 
 
 REPRODUCED = {"rtol": 1e-8, "atol": 1e-12}  # other BLAS or CPUs change the last digits, not more
@@ -582,7 +627,7 @@ def command(options) -> int:
     if options.allow_unstable:
         overrides["solver.allowUnstable"] = True
     result = run(options.scene, options.out, overrides, force=options.force, resume=options.resume,
-                 progress=sys.stderr.isatty())
+                 progress=sys.stderr.isatty(), trust_geo=options.trust_geo)
     final = result.history
     print(f"{result.folder}: {len(final['t'])} steps, normV(T) = {final['normV'][-1]:.6g}, "
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")

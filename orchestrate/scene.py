@@ -25,7 +25,7 @@ from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationE
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
-from orchestrate.mesh import geo_constants
+from orchestrate.mesh import TIME_LIMIT, geo_constants
 from orchestrate.parameters import PARAMETERS, driver_values, field
 
 
@@ -108,7 +108,7 @@ class Strict(BaseModel):
 def geo_path(value: str, folder: Path) -> Path:
     """Where a scene's mesh.geo is: an absolute path as is; a relative one beside the scene file
     (`folder`), else, when no file is there, the repository's (meshes/...), so the project's scenes
-    and copies of them keep their `meshes/` paths. Either way the file is read and checked
+    and copies of them keep their `meshes/` paths. Either way the file and its includes are read
     (orchestrate/geo.py); the path returned has its symbolic links resolved."""
     path = Path(value)
     if not path.is_absolute():
@@ -124,11 +124,10 @@ def geo_path(value: str, folder: Path) -> Path:
 class Mesh(Strict):
     """A gmsh source with its size parameter n (elements per side) and other DefineConstant
     values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top, 4 left). A .geo
-    file is gmsh code, so every one, the project's and a user's, and the files it includes, is
-    checked first: commands that run programs or touch other files are refused (orchestrate/geo.py)."""
+    file is gmsh code: gmsh reads it confined and bounded (orchestrate/mesh.py)."""
     geo: str | None = Field(None, description="a gmsh .geo file: absolute, or relative to the scene file's folder "
-                                              "(where none is there, the repository's meshes/...), checked before "
-                                              "gmsh reads it (README.md, Your own files); or give rectangle")
+                                              "(where none is there, the repository's meshes/...), meshed in a "
+                                              "sandbox (README.md, Your own files); or give rectangle")
     rectangle: tuple[Real, Real, Real, Real] | None = Field(
         default=None, description="[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
     n: int = Field(strict=True, ge=1, le=4096, description="the mesh size parameter of the .geo (elements per side "
@@ -139,6 +138,10 @@ class Mesh(Strict):
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = Field(
         {}, description="other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
     contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
+    timeLimit: float = Field(TIME_LIMIT, strict=True, gt=0, le=86400, allow_inf_nan=False,
+                             description="the wall-clock and CPU time gmsh may take to mesh the body, after which "
+                                         "it is stopped and the run refused (the default: 2.5 times what the "
+                                         "largest mesh a run fits in 23 GiB took, orchestrate/mesh.py) [s]")
 
     @model_validator(mode="after")
     def one_source(self):

@@ -45,18 +45,17 @@ def pilot_overrides(scene, steps: int) -> dict:
     return overrides
 
 
-def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None) -> Path | str:
+def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None, trust_geo: bool = False) -> Path | str:
     """A pilot run at N = steps into `folder`, or why it did not run when a step bound refused N
     or the run broke down at it (a smaller step may not); any other failure is the scene's and
     ends the search."""
+    from orchestrate.mesh import MeshError
     from orchestrate.runner import SolverError, run
 
     manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
-    from orchestrate.mesh import MeshError
-
     overrides = pilot_overrides(scene, steps)
     try:
-        run(manual, folder, overrides, force=True, progress=False, mesh_cache=mesh_cache)
+        run(manual, folder, overrides, force=True, progress=False, mesh_cache=mesh_cache, trust_geo=trust_geo)
     except SolverError as error:
         if error.returncode not in STEP_FAILURES:
             raise StepsError(f"time.N = 'auto': the pilot run at N = {steps} failed: {error}") from None
@@ -75,7 +74,7 @@ def relative_distance(first: Path, second: Path, first_steps: int, second_steps:
     return row["errorV"] / row["normV"] if row["normV"] > 0 else 0.0
 
 
-def time_error_model(scene, work: Path, mesh_cache: Path | None = None) -> dict:
+def time_error_model(scene, work: Path, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
     """The pilots of a scene (time.scheme, time.T and the meshes one level coarser than its own):
     the N_a they settled on, the order used and the finest pilot's error (steps 1 and 2 of the
     rule). Pilot folders are made under `work` and removed."""
@@ -85,7 +84,7 @@ def time_error_model(scene, work: Path, mesh_cache: Path | None = None) -> dict:
 
     def ran(steps: int) -> bool:
         if steps not in folders:
-            folders[steps] = pilot(scene, steps, work / f"N{steps}", mesh_cache)
+            folders[steps] = pilot(scene, steps, work / f"N{steps}", mesh_cache, trust_geo)
         return isinstance(folders[steps], Path)
 
     pilots = []
@@ -125,9 +124,9 @@ def steps_for(model: dict, target: float) -> tuple[int, float]:
     return chosen, error * (finest / chosen) ** p
 
 
-def choose_steps(scene, work: Path, mesh_cache: Path | None = None) -> dict:
+def choose_steps(scene, work: Path, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
     """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
-    model = time_error_model(scene, work, mesh_cache)
+    model = time_error_model(scene, work, mesh_cache, trust_geo)
     chosen, estimated = steps_for(model, scene.time.targetError)
     most = int(PARAMETERS["N"].bounds["le"])
     if chosen > most:

@@ -144,12 +144,12 @@ def folder_name(assignment: dict) -> str:
     return f"{readable}-{key}"
 
 
-def run_one(scene_data: dict, folder: str) -> dict:
+def run_one(scene_data: dict, folder: str, trust_geo: bool = False) -> dict:
     """Task of a worker: one run, never raising (its failure is a row of sweep.csv)."""
     from orchestrate.runner import run
 
     try:
-        run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False)
+        run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False, trust_geo=trust_geo)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
     return row_of(Path(folder), "completed")
@@ -233,11 +233,13 @@ def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict 
 
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
-          workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto") -> list[dict]:
+          workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto",
+          trust_geo: bool = False) -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → lists of values) over the scene with
     `base` overrides; returns the rows of sweep.csv (written in `out`, also when interrupted). Keys
     are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label.
-    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py)."""
+    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py);
+    trust_geo: as for `run`."""
     from orchestrate.progress import wanted
 
     shown = wanted(progress)
@@ -245,7 +247,7 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
     rows, jobs = plan(scene, grid, out, base)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        run_jobs(jobs, workers, scheduler, shown)
+        run_jobs(jobs, workers, scheduler, shown, trust_geo)
     finally:
         write_table(out / "sweep.csv", rows, list(grid))
     return rows
@@ -276,7 +278,7 @@ def stop_workers(pids: list[int]) -> None:
             pass
 
 
-def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
+def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool, trust_geo: bool = False) -> None:
     """Run the jobs of `plan` on dask.distributed; each row gets its status and figures.
     An interruption (SIGINT, SIGTERM, SIGHUP) closes the cluster: its workers end, and their
     FreeFem++ children with them (freefem.py); the same sweep started again runs what did not
@@ -295,7 +297,7 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool) -> None:
     interrupted = False
     try:
         with signals_as_interrupt():
-            futures = {client.submit(run_one, data, folder, pure=False): row for row, data, folder in jobs}
+            futures = {client.submit(run_one, data, folder, trust_geo, pure=False): row for row, data, folder in jobs}
             with counter(progress, len(futures), "run", "runs") as bar:
                 for future in as_completed(futures):
                     futures[future].update(future.result())
@@ -324,6 +326,7 @@ NAME, HELP = "sweep", "run the cartesian product of overrides on dask.distribute
 
 def add_arguments(parser) -> None:
     from orchestrate.cli import positive
+    from orchestrate.runner import add_trust_geo
 
     parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
     parser.add_argument("--grid", action="append", default=[], metavar="KEY=[V1, V2, ...]",
@@ -346,6 +349,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--images", action="store_true",
                         help="render every run's images (off by default: a sweep's figures are in sweep.csv, and "
                              "`render` draws any run's images later)")
+    add_trust_geo(parser)
 
 
 def command(options) -> int:
@@ -358,7 +362,8 @@ def command(options) -> int:
     if not options.images and "output.images" not in grid:
         base.setdefault("output.images", False)
     rows = sweep(options.scene, grid, options.out, base,
-                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty())
+                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty(),
+                 trust_geo=options.trust_geo)
     width = max(len(row["folder"]) for row in rows)
     for row in rows:
         figure = f"normV(T) = {row['normV']:.6g}" if row.get("normV") is not None else row.get("error", "")

@@ -11,6 +11,7 @@ from orchestrate.freefem import REPO
 from orchestrate.hertz import contact_line, hertz, measure
 from orchestrate.results import read_state
 from orchestrate.runner import SolverError, run
+from orchestrate.scene import SceneError
 
 NO_GLUE = """
 [glue]
@@ -158,12 +159,14 @@ def test_a_traction_on_the_contact_boundary_acts_where_the_bodies_are_apart(tmp_
 
 
 def test_body_1_contact_labels_that_do_not_meet_end_to_end_are_refused(tmp_path):
-    """meshes/base.geo's label 5 is its top left and right of the middle (label 1): two pieces."""
+    """meshes/base.geo's label 5 is its top left and right of the middle (label 1): two pieces,
+    refused from the mesh before FreeFEM starts."""
     base = ('[body1.mesh]\ngeo = "meshes/base.geo"\nn = 8\ncontactLabel = 5\n'
             '[[body1.boundary]]\ntype = "clamped"\nlabel = 3\n')
     block = pressed_block([-3.0, 3.0, 0.0, 1.0], 12, 1, "-0.01*t").replace("body1", "body2")
-    message = refused(tmp_path, "pieces", base, block)
-    assert "body 1's potential contact boundary (label 5) is not one segment" in message
+    with pytest.raises(SceneError, match=r"^body1\.mesh\.contactLabel = 5: Γ_C is 2 separate curves in body 1's mesh "
+                                         r"\(through \(.*\) and \(.*\)\): it must be one connected curve"):
+        run(scene(tmp_path, "pieces", base, block), tmp_path / "pieces")
     whole = run(scene(tmp_path, "whole", base.replace("contactLabel = 5", "contactLabel = [1, 5]"), block), tmp_path / "whole")
     assert whole.history["contactLength"][-1] == pytest.approx(6.0)
 

@@ -1,13 +1,19 @@
 """The committed default meshes are what their gmsh sources give (a stale .msh would silently
 replace the geometry), and they do not match on Γ_C (body 2 about 4/3 as fine as body 1); graded
-meshes follow their size law and refinement nests."""
+meshes follow their size law and refinement nests; a .geo is meshed within limits of time,
+memory and size, and what the solver cannot take is refused naming the field (issue 32)."""
+import os
+import subprocess
+import time
+
 import meshio
 import numpy as np
 import pytest
 
 from conftest import gmsh_mesh
+from orchestrate import mesh
 from orchestrate.freefem import REPO
-from orchestrate.mesh import MeshError, body_mesh, cache_key
+from orchestrate.mesh import MeshError, MeshLimits, TooLarge, body_mesh, cache_key
 
 
 @pytest.mark.parametrize("body, n", [(1, 24), (2, 32)])
@@ -249,3 +255,100 @@ def test_a_mesh_file_without_elements_reads_as_no_triangles(tmp_path):
     empty.write_text(head + "$Elements\n0\n$EndElements\n")
     info = parse_msh(empty)
     assert (info.triangles, info.segments) == (0, {}) and info.nodes == meshio_facts(REPO / "meshes" / "paper_body1-n24.msh")[0]
+
+
+# --- bounded meshing (issue 32, item 8) ---------------------------------------------------------
+
+RECTANGLE = (REPO / "meshes" / "rectangle.geo").read_text()
+
+
+def user_geo(folder, extra: str):
+    source = folder / "block.geo"
+    source.write_text(RECTANGLE + extra + "\n")
+    return source
+
+
+def meshers_running(folder) -> list[str]:
+    """Command lines of mesher processes meshing copies made under `folder`."""
+    found = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout.splitlines()
+    return [line for line in found if "gmsh_mesher" in line and str(folder) in line]
+
+
+@pytest.mark.parametrize("code", ["Sleep 30;", "For i In {1:1e12}\n  x = i;\nEndFor"], ids=["sleep", "endless loop"])
+def test_a_geo_that_never_finishes_is_stopped_at_its_time_limit(tmp_path, code):
+    started = time.monotonic()
+    with pytest.raises(MeshError, match=r"^body1\.mesh\.timeLimit = 2 s: gmsh did not finish meshing body1's \.geo "
+                                        r"\(block\.geo .*\) within it; raise it or coarsen the mesh"):
+        body_mesh(user_geo(tmp_path, code), {"n": 4.0}, cache=tmp_path / "cache", limits=MeshLimits("body1", 2))
+    assert time.monotonic() - started < 5
+    assert not meshers_running(tmp_path) and not list((tmp_path / "cache").iterdir())
+
+
+def test_a_mesh_size_far_too_small_is_refused_before_the_surface_is_meshed(tmp_path):
+    """Mesh.MeshSizeMax = 1e-4 on the 6 × 6 square asks for about 2/√3 · 36/1e-8 = 4.2e9 nodes,
+    33 TB at 8 kB each; its boundary alone is 240 000 segments, meshed in well under a second."""
+    source = user_geo(tmp_path, "Mesh.MeshSizeMax = 1e-4;")
+    started = time.monotonic()
+    with pytest.raises(TooLarge) as error:
+        body_mesh(source, {"n": 4.0, "x1": 6.0, "y1": 6.0}, cache=tmp_path, limits=MeshLimits("body2", 60))
+    assert time.monotonic() - started < 10
+    message = str(error.value)
+    nodes = int(message.split("about ")[1].split(" nodes")[0].replace(",", ""))
+    assert 0.5 * 4.2e9 < nodes < 1.5 * 4.2e9, message
+    assert "an area of 36 " in message and "body2.mesh.n or body2.mesh.refine" in message and "Mesh.MeshSizeMax" in message
+
+
+def test_the_node_estimate_is_close_for_the_project_meshes(tmp_path, monkeypatch):
+    """The estimate gmsh's boundary mesh gives, against the nodes of the mesh made: within a factor
+    2 either way for uniform, graded and structured meshes (read from the refusal at a limit of 1 node)."""
+    cases = [("paper_body1.geo", {"n": 24}), ("paper_body1_graded.geo", {"n": 24}), ("base.geo", {"n": 16}),
+             ("rectangle.geo", {"n": 8, "structured": 1}), ("hertz_cylinder.geo", {"n": 8})]
+    for name, numbers in cases:
+        made = mesh.read_msh(body_mesh(REPO / "meshes" / name, numbers, cache=tmp_path)).nodes
+        with monkeypatch.context() as patch:
+            patch.setattr(mesh, "memory_available", lambda: mesh.BYTES_PER_NODE)
+            with pytest.raises(TooLarge) as error:
+                body_mesh(REPO / "meshes" / name, numbers, 1, cache=tmp_path)
+        estimated = int(str(error.value).split("about ")[1].split(" nodes")[0].replace(",", "")) / 4
+        assert 0.5 < estimated / made < 2, (name, estimated, made)
+
+
+def test_a_geo_that_fills_the_memory_it_may_use_is_refused_naming_it(tmp_path, monkeypatch):
+    """On a machine with 64 MiB free (as told to the mesher) its address space is 576 MiB."""
+    monkeypatch.setattr(mesh, "memory_available", lambda: 64 * 2 ** 20)
+    monkeypatch.setattr(mesh, "GMSH_ADDRESS_SPACE", 512 * 2 ** 20)
+    with pytest.raises(MeshError, match=r"gmsh ran out of the 0\.6 GiB it may use .* meshing body1's \.geo"):
+        body_mesh(user_geo(tmp_path, "x() = {1:1e9};"), {"n": 4.0}, cache=tmp_path, limits=MeshLimits("body1", 30))
+
+
+def test_a_mesh_file_beyond_its_size_limit_is_refused_naming_it(tmp_path, monkeypatch):
+    """A size field fine inside and coarse on the boundary (684 nodes and 62 kB made by gmsh, 18
+    nodes by the boundary's estimate), on a machine with room for 100 nodes: its file passes
+    2 × 100 × 120 bytes."""
+    monkeypatch.setattr(mesh, "memory_available", lambda: 100 * mesh.BYTES_PER_NODE)
+    field = 'Field[1] = MathEval;\nField[1].F = "0.003 + 2*((x-0.5)^2+(y-0.5)^2)";\nBackground Field = 1;'
+    with pytest.raises(MeshError, match=r"gmsh's mesh of body1's \.geo .* grew beyond 0\.024 MB"):
+        body_mesh(user_geo(tmp_path, field), {"n": 4.0}, cache=tmp_path / "cache", limits=MeshLimits("body1", 30))
+    assert not list((tmp_path / "cache").iterdir())
+
+
+@pytest.mark.parametrize("option, words", [
+    ("Mesh.ElementOrder = 2;", ["Line 3, Triangle 6 elements", "(Mesh.ElementOrder = 2)"]),
+    ("Mesh.RecombineAll = 1;", ["Quadrilateral 4 elements", "(Mesh.RecombineAll = 1)"]),
+])
+def test_elements_the_solver_cannot_take_are_refused_naming_the_option(tmp_path, option, words):
+    with pytest.raises(MeshError) as error:
+        body_mesh(user_geo(tmp_path, option), {"n": 4.0}, cache=tmp_path, limits=MeshLimits("body2"))
+    message = str(error.value)
+    assert message.startswith("body2.mesh.geo (block.geo with {'n': 4.0}): its mesh has ")
+    for word in [*words, "the solver takes 3-node triangles only (Mesh.ElementOrder = 1"]:
+        assert word in message, message
+
+
+def test_control_characters_in_gmsh_s_text_are_shown_escaped(tmp_path):
+    source = user_geo(tmp_path, 'Error("\x1b[2J\x1b]0;owned\x07 \u202etxt.exe");\nAbort;')
+    with pytest.raises(MeshError) as error:
+        body_mesh(source, {"n": 4.0}, cache=tmp_path)
+    message = str(error.value)
+    assert message.endswith(r"Error: \x1b[2J\x1b]0;owned\x07 \u202etxt.exe")
+    assert message.isprintable()

@@ -76,7 +76,7 @@ def test_a_target_beyond_the_largest_n_says_the_n_it_needs_and_the_cap(monkeypat
     from orchestrate import steps
 
     model = {"firstPilot": 10, "finestPilotError": 1e-3, "orderUsed": 1.0, "schemeOrder": 1}
-    monkeypatch.setattr(steps, "time_error_model", lambda scene, work, cache: model)
+    monkeypatch.setattr(steps, "time_error_model", lambda scene, work, cache, trust_geo=False: model)
     scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-12})
     with pytest.raises(steps.StepsError, match=r"needs N = 40,000,000,000 steps, above the largest N, 10,000,000: "
                                                r"give time.targetError >= 4e-09"):

@@ -306,6 +306,10 @@ def test_a_partial_that_is_not_a_run_s_folder_is_refused(tmp_path, kind):
     ({"body2.mesh.structured": True, "body2.mesh.geo": "meshes/base.geo"}, ["structured", "base.geo has no structured"]),
     ({"output.times": [True]}, ["output.times"]),
     ({"output.times": ["0.5"]}, ["output.times"]),
+    ({"body1.mesh.timeLimit": 0}, ["body1.mesh.timeLimit = 0", "greater than 0"]),
+    ({"body2.mesh.timeLimit": 1e6}, ["body2.mesh.timeLimit", "less than or equal to 86400"]),
+    ({"body1.mesh.timeLimit": float("nan")}, ["body1.mesh.timeLimit", "finite"]),
+    ({"body1.mesh.timeLimit": True}, ["body1.mesh.timeLimit", "valid number"]),
 ])
 def test_bad_scene_values_are_refused_naming_the_key(tmp_path, overrides, words):
     with pytest.raises(SceneError) as error:
