@@ -45,8 +45,9 @@ plugins: system-packages
 paper: setup
 	$(PYTHON) -m orchestrate run scenes/paper.toml --out build/paper --force --check-against results/paper
 
+# Into the committed results/gallery: --force replaces its run folders (only folders of runs).
 gallery: setup
-	$(PYTHON) -m orchestrate gallery
+	$(PYTHON) -m orchestrate gallery --force
 
 test: setup
 	$(PYTHON) -m pytest -q tests

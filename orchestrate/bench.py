@@ -53,6 +53,7 @@ from orchestrate.convergence import distances
 from orchestrate.freefem import REPO, SolverError, run_script
 from orchestrate.manifest import facts
 from orchestrate.mesh import forget_whole_files
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_text
 from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.reports import bench_report, write_csv
 from orchestrate.results import load_result
@@ -291,13 +292,14 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
 
 
 def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None,
-          targets=TARGETS) -> list[dict]:
+          targets=TARGETS, force: bool = False) -> list[dict]:
     """`levels` graded levels (the reference two finer) and `uniform_levels` uniform ones (default
     as many: uniform meshes need one more level for the same error); for each error of `targets`
-    the levels bracket, the search for the coarsest mesh that reaches it."""
+    the levels bracket, the search for the coarsest mesh that reaches it. `out`: a new folder, or
+    with `force` one an earlier bench wrote (outputs.py)."""
     counts = {"uniform": uniform_levels or levels, "graded": levels}
     out = Path(out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    refuse_folder(out, NAME, force)  # now, not after the runs
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         models = error_models(scratch)
@@ -319,7 +321,7 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_leve
     rows = rows[2:] + rows[:2]
     flags = (f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g} "
              f"--targets {','.join(f'{100 * target:g}' for target in targets)}")
-    write(out, rows, solvers, models, flags, fraction, targets)
+    write(claim_folder(out, NAME, FILES, force), rows, solvers, models, flags, fraction, targets)
     return rows
 
 
@@ -362,6 +364,7 @@ def variants(rows: list[dict]) -> list[str]:
     return list(dict.fromkeys(row["variant"] for row in rows if row["variant"] not in (REFERENCE, CHECK)))
 
 
+FILES = ("bench.csv", "README.md", "workprecision.png")
 COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
            "startup", "meshing", "setup", "columns", "loop", "output", "firstStep", "overheadRatio", "laterOverheadRatio",
            "laterOverheadLow", "laterOverheadHigh",
@@ -374,9 +377,9 @@ def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags:
     plot(out / "workprecision.png", rows, targets)
     command = f"python -m orchestrate bench {flags}"
     statuses = {name: {target: search_status(rows, name, target) for target in targets} for name in variants(rows)}
-    (out / "README.md").write_text(bench_report(rows, solvers, models, command, fraction, cheapest(rows, targets),
-                                                statuses, at_targets(rows, targets),
-                                                at_targets(rows, targets, "errorToCheck")))
+    write_text(out / "README.md", bench_report(rows, solvers, models, command, fraction, cheapest(rows, targets),
+                                               statuses, at_targets(rows, targets),
+                                               at_targets(rows, targets, "errorToCheck")))
 
 
 def plot(target: Path, rows: list[dict], targets) -> None:
@@ -465,11 +468,12 @@ def add_arguments(parser) -> None:
                         help="errors in %% to find the fastest run for: between the two levels that bracket each, "
                              "the coarsest mesh that reaches it is searched; a target no two levels bracket is not "
                              "(default 1,0.2)")
-    parser.add_argument("--out", default="results/bench", help="where the tables and plots go")
+    parser.add_argument("--out", default="results/bench", help="a new folder for the table, report and plot")
+    add_force_argument(parser, NAME)
 
 
 def command(options) -> int:
     bench(options.out, levels=options.levels, fraction=options.time_fraction, uniform_levels=options.uniform_levels,
-          targets=options.targets)
+          targets=options.targets, force=options.force)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -10,7 +10,8 @@ them, and the report says which. The two runs must cover the same bodies: their 
 their domains may not.
 
 The histories (history.csv) of both runs are drawn over each other in history.png of the
-comparison folder, next to comparison.csv (one row per common time).
+comparison folder, next to comparison.csv (one row per common time): a new folder, or with
+--force one an earlier comparison wrote, whose files alone it replaces (outputs.py).
 """
 from __future__ import annotations
 
@@ -208,14 +209,19 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     return Comparison(a, b, reference, nested, rows, differing_parameters(a, b))
 
 
-def write(comparison: Comparison, out: Path, dpi: int = 110) -> None:
-    """comparison.csv, report.txt and history.png (the two histories over each other) in `out`."""
+FILES = ("comparison.csv", "report.txt", "history.png")
+
+
+def write(comparison: Comparison, out: Path, dpi: int = 110, force: bool = False) -> None:
+    """comparison.csv, report.txt and history.png (the two histories over each other) in `out`: a
+    new folder, or with `force` one an earlier compare wrote (outputs.py)."""
+    from orchestrate.outputs import claim_folder, write_text
     from orchestrate.render import plot_history
     from orchestrate.reports import write_csv
 
-    out.mkdir(parents=True, exist_ok=True)
+    claim_folder(out, NAME, FILES, force)
     write_csv(out / "comparison.csv", comparison.rows, ["t", *QUANTITIES, *NORMS.values()])
-    (out / "report.txt").write_text(comparison.report() + "\n")
+    write_text(out / "report.txt", comparison.report() + "\n")
     plot_history({"A": comparison.a, "B": comparison.b}, out / "history.png", dpi=dpi)
 
 
@@ -225,21 +231,22 @@ NAME, HELP = "compare", "differences of two runs in the model's norms, and their
 
 
 def add_arguments(parser) -> None:
+    from orchestrate.outputs import add_force_argument
+
     parser.add_argument("run_a", metavar="RUN_A", help="a run folder (with state files: output.fields \"state\")")
     parser.add_argument("run_b", metavar="RUN_B", help="another run of the same bodies")
-    parser.add_argument("--out", help="folder for comparison.csv, report.txt and history.png "
+    parser.add_argument("--out", help="a new folder for comparison.csv, report.txt and history.png "
                                       "(default: compare-<A>-<B> in the current folder)")
+    add_force_argument(parser, NAME)
 
 
 def command(options) -> int:
-    from orchestrate.freefem import InputError
-    from orchestrate.manifest import FACTS, MANIFEST
+    from orchestrate.outputs import refuse_folder
 
     out = Path(options.out or f"compare-{Path(options.run_a).resolve().name}-{Path(options.run_b).resolve().name}")
-    if (out / MANIFEST).exists() or (out / FACTS).exists():
-        raise InputError(f"--out {out} is a run folder: its history.png would be replaced; give another folder")
+    refuse_folder(out, NAME, options.force)  # before the comparison, which takes a FreeFem++ run
     comparison = compare(options.run_a, options.run_b)
-    write(comparison, out)
+    write(comparison, out, force=options.force)
     print(comparison.report())
-    print(f"files: {out / 'comparison.csv'}, {out / 'report.txt'}, {out / 'history.png'}")
+    print(f"files: {', '.join(str(out / name) for name in FILES)}")
     return 0

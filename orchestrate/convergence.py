@@ -27,6 +27,7 @@ import numpy as np
 
 from orchestrate.compare import distances as state_distances
 from orchestrate.manifest import facts
+from orchestrate.outputs import add_force_argument, claim_folder, write_text
 from orchestrate.plots import pyplot, save
 from orchestrate.progress import wanted
 from orchestrate.reports import QUANTITIES, LABELS, convergence_report, expected_order, write_csv
@@ -139,12 +140,15 @@ def rates(rows: list[dict], ladder: str) -> dict[str, dict[str, float]]:
 def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: int = 6, n2: int = 8, steps: int = 20,
                 time_mesh_level: int = 3, space_steps_level: int = 4, kinds=KINDS, schemes=(None,),
                 time_steps: int | None = None, time_count: int | None = None, workers: int = 2,
-                progress: bool | str = "auto") -> list[dict]:
-    """Run the ladders and write convergence.csv, README.md and convergence.png in `out`;
-    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py)."""
+                progress: bool | str = "auto", force: bool = False) -> list[dict]:
+    """Run the ladders and write convergence.csv, README.md and convergence.png in `out`, the runs
+    in out/runs: a new folder, or with `force` one an earlier study wrote, whose complete runs are
+    then reused (outputs.py); progress: a bar of the runs, True, False or "auto" (where one can be
+    seen: progress.py)."""
     shown = wanted(progress)
     out = Path(out).resolve()
     scene = Scene.load(scene_path)
+    claim_folder(out, f"study {NAME}", FILES, force, folders=("runs",))
     studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level, kinds, schemes, time_steps, time_count)
     jobs, planned, references = [], {}, {}
     for ladder in studied:
@@ -181,10 +185,11 @@ def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: 
                + (f" --schemes {','.join(schemes)} --time-N {time_steps or steps} --time-levels {time_count or count}"
                   if "time" in kinds and all(schemes) else ""))
     observed = {ladder.name: rates(table, ladder.name) for ladder in studied}
-    (out / "README.md").write_text(convergence_report(table, observed, command, studied))
+    write_text(out / "README.md", convergence_report(table, observed, command, studied))
     return table
 
 
+FILES = ("convergence.csv", "README.md", "convergence.png")
 COLUMNS = ["ladder", "kind", "scheme", "level", "n1", "n2", "N", "h1", "k", "status", "errorV", "relativeErrorV",
            "relativeErrorVAtT", "errorZeta", "errorBeta", "nextV", "nextZeta", "nextBeta", "seconds"]
 
@@ -241,7 +246,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--time-levels", type=at_least_two, default=None,
                         help="levels of each time ladder (default: --levels)")
     parser.add_argument("--workers", type=positive, default=2, help="runs at a time")
-    parser.add_argument("--out", default="results/convergence", help="where the tables and plots go")
+    parser.add_argument("--out", default="results/convergence", help="a new folder for the tables, plots and runs")
+    add_force_argument(parser, f"study {NAME}")
 
 
 def time_mesh_level(levels: int, given: int | None) -> int:
@@ -262,6 +268,7 @@ def command(options) -> int:
                 time_mesh_level=time_mesh_level(options.levels, options.time_mesh_level),
                 space_steps_level=options.space_steps_level,
                 kinds=options.ladders, schemes=options.schemes or (None,), time_steps=options.time_N,
-                time_count=options.time_levels, workers=options.workers, progress=sys.stderr.isatty())
+                time_count=options.time_levels, workers=options.workers, progress=sys.stderr.isatty(),
+                force=options.force)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -15,16 +15,21 @@ NAME, HELP = "gallery", "run the gallery scenes into results/gallery"
 def add_arguments(parser) -> None:
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"some of {', '.join(SCENES)} (default: all)")
     parser.add_argument("--out", default="results/gallery", help="where the scenes' folders go")
+    parser.add_argument("--force", action="store_true",
+                        help="replace the scenes' run folders there (only folders of runs, as `run --force`)")
 
 
 def command(options) -> int:
-    from orchestrate.runner import run
+    from orchestrate.runner import refuse_existing, run
 
     unknown = [name for name in options.names if name not in SCENES]
     if unknown:
         raise SceneError(f"no gallery scene {', '.join(unknown)} (the gallery: {', '.join(SCENES)})")
-    for name in options.names or SCENES:
-        result = run(REPO / "scenes" / f"{name}.toml", Path(options.out) / name, force=True, progress=sys.stderr.isatty())
+    folders = {name: Path(options.out).absolute() / name for name in options.names or SCENES}
+    for folder in folders.values():  # every one now, not after the runs before it
+        refuse_existing(folder, options.force)
+    for name, folder in folders.items():
+        result = run(REPO / "scenes" / f"{name}.toml", folder, force=options.force, progress=sys.stderr.isatty())
         if name == "hertz":  # its comparison with the analytic solution, as in results/hertz
             from orchestrate.hertz import gallery_figures
 

@@ -33,7 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrate.outputs import add_force_argument, claim_folder, created, refuse_folder, write_figure, write_text
+
 NAME, HELP = "hertz", "Hertz line contact against the analytic solution, over mesh levels"
+FILES = ("hertz.csv", "README.md", "pressure.png", "vonmises.png")
 RADIUS = 8.0  # R of meshes/hertz_cylinder.geo, which scenes/hertz.toml keeps
 CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
 LOADED = "force"  # scenes/hertz.toml under a prescribed force instead of a prescribed approach
@@ -92,16 +95,18 @@ def measure(result, radius: float) -> dict:
             "errorP0": abs(p0_computed - p0) / p0, "errorProfile": profile}
 
 
-def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | str = "auto") -> list[dict]:
-    """The cases over the mesh levels, into hertz.csv, README.md and the figures in `out`;
-    progress: each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
+def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | str = "auto",
+          force: bool = False) -> list[dict]:
+    """The cases over the mesh levels, into hertz.csv, README.md and the figures in `out` (a new
+    folder, or with `force` one this study wrote: outputs.py); progress: each run's bar, True,
+    False or "auto" (where one can be seen: progress.py)."""
     from orchestrate.freefem import REPO
     from orchestrate.progress import wanted
     from orchestrate.runner import run
 
     shown = wanted(progress)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    refuse_folder(out, f"study {NAME}", force)  # now, not after the runs
     rows, finest = [], {}
     with tempfile.TemporaryDirectory(prefix="hertz-") as scratch:
         for case, overrides in CASES.items():
@@ -123,7 +128,7 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | 
             row["pressedP0"] = abs(row["p0Computed"] - pressed["p0Computed"]) / pressed["p0Computed"]
             rows.append(row)
         mesh_errors([row for row in rows if row["case"] == LOADED])
-        write(out, rows, finest, levels, coarsest)
+        write(claim_folder(out, f"study {NAME}", FILES, force), rows, finest, levels, coarsest)
     return rows
 
 
@@ -145,13 +150,13 @@ def node_counts(result) -> dict:
 
 def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int) -> None:
     """The table, the report and the figures; `finest` maps each case to its finest (row, result)."""
-    with open(out / "hertz.csv", "w", newline="") as handle:
+    with created(out / "hertz.csv", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=COLUMNS, restval="")
         writer.writeheader()
         writer.writerows(rows)
     plot_pressure(out / "pressure.png", finest)
     plot_von_mises(out / "vonmises.png", finest["same"][1])
-    (out / "README.md").write_text(report(rows, levels, coarsest))
+    write_text(out / "README.md", report(rows, levels, coarsest))
 
 
 def report(rows: list[dict], levels: int, coarsest: int) -> str:
@@ -202,7 +207,7 @@ def plot_pressure(path: Path, finest: dict) -> None:
     axis.set_ylabel("contact pressure (Pa)")
     axis.legend(fontsize=8)
     axis.grid(alpha=0.3)
-    figure.savefig(path, dpi=150)
+    write_figure(figure, path, dpi=150)
     plt.close(figure)
 
 
@@ -227,7 +232,7 @@ def plot_von_mises(path: Path, result) -> None:
     axis.set_xlabel("x (m)")
     axis.set_ylabel("y (m)")
     figure.colorbar(shading, ax=axis, label="von Mises stress, plane strain (Pa)")
-    figure.savefig(path, dpi=150)
+    write_figure(figure, path, dpi=150)
     plt.close(figure)
 
 
@@ -248,11 +253,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
     parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
     parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
+    add_force_argument(parser, f"study {NAME}")
 
 
 def command(options) -> int:
     import sys
 
-    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty())
+    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -14,7 +14,8 @@ import textwrap
 from pathlib import Path
 
 from orchestrate.freefem import InputError
-from orchestrate.plots import pyplot, save
+from orchestrate.outputs import MARK, add_force_argument, refuse_file
+from orchestrate.plots import plain, pyplot, save
 from orchestrate.render import steady_axis
 from orchestrate.sweep import FIGURES
 
@@ -66,24 +67,26 @@ def series(keys: list[str], rows: list[dict], x: str, y: str) -> tuple[dict, dic
 
 
 def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | Path | None = None,
-               log: str = "none", dpi: int = 110) -> Path:
+               log: str = "none", dpi: int = 110, force: bool = False) -> Path:
     """Draw `y` of every completed run against the swept key `x` (default: the first) into `target`
-    (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg); log is "none", "x", "y" or "xy"."""
+    (default <folder>/<y>-vs-<x>.png; .png, .pdf or .svg), a new file or with `force` an image
+    this program drew (outputs.py); log is "none", "x", "y" or "xy"."""
     keys, rows = read_sweep(folder)
     x = x or keys[0]
     target = Path(target) if target else Path(folder) / f"{y}-vs-{x}.png"
     if target.suffix not in FORMATS:
         raise InputError(f"--out {target}: give a file name ending in {', '.join(FORMATS)}")
+    refuse_file(target, force, MARK)
     curves, ticks, left_out = series(keys, rows, x, y)
     if not curves:
         raise InputError(f"{folder}: no run of the sweep completed with a value of {y}: nothing to draw")
     figure, axis = pyplot().subplots(figsize=(7, 4.5))
     for label, points in curves.items():
-        axis.plot(*zip(*points), "o-", label=label or None)
+        axis.plot(*zip(*points), "o-", label=plain(label) or None)
     axis.set_xscale("log" if "x" in log and ticks is None else "linear")
     positions = sorted({position for points in curves.values() for position, _ in points})
     if ticks is not None:
-        axis.set_xticks(list(ticks), list(ticks.values()), rotation=20, ha="right", fontsize=8)
+        axis.set_xticks(list(ticks), [plain(value) for value in ticks.values()], rotation=20, ha="right", fontsize=8)
     elif len(positions) <= 12:  # few values: a tick at each, in plain numbers (no 2×10¹ on a log axis)
         axis.set_xticks(positions, [f"{value:g}" for value in positions])
         axis.minorticks_off()
@@ -92,13 +95,13 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
         axis.set_yscale("log")
     elif values:
         steady_axis(axis, values)
-    axis.set_xlabel(x)
+    axis.set_xlabel(plain(x))
     axis.set_ylabel(y)
     axis.grid(True, alpha=0.3)
     if len(curves) > 1:
         axis.legend(fontsize=8)
     if left_out:
-        axis.set_title(textwrap.fill(f"left out (did not complete): {', '.join(left_out)}", 110), fontsize=7)
+        axis.set_title(plain(textwrap.fill(f"left out (did not complete): {', '.join(left_out)}", 110)), fontsize=7)
     save(figure, target, dpi=dpi)
     return target
 
@@ -115,10 +118,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--x", metavar="KEY", help="the swept key along the axis (default: the first swept key); the other swept "
                                     "keys give one curve per combination")
     parser.add_argument("--log", choices=("none", "x", "y", "xy"), default="none", help="which axes are logarithmic")
-    parser.add_argument("--out", help="the image file, .png, .pdf or .svg (default: <SWEEP>/<FIGURE>-vs-<KEY>.png)")
+    parser.add_argument("--out", help="the image file, .png, .pdf or .svg (default: <SWEEP>/<FIGURE>-vs-<KEY>.png); "
+                                      "an existing one is replaced only with --force")
+    add_force_argument(parser, NAME, single_file=True)
 
 
 def command(options) -> int:
-    target = plot_sweep(options.sweep, options.y, options.x, options.out, options.log)
+    target = plot_sweep(options.sweep, options.y, options.x, options.out, options.log, force=options.force)
     print(f"image: {target}")
     return 0

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from orchestrate.outputs import write_figure
+
 
 def pyplot():
     """matplotlib.pyplot on the Agg backend: plots go to files, never to a screen."""
@@ -12,6 +14,12 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def plain(text: str) -> str:
+    """`text` drawn as written: a sweep's keys and values are expressions, not TeX, and matplotlib
+    would parse any text between two dollar signs as mathtext (and fail on `$x^$`)."""
+    return text.replace("$", r"\$")
 
 
 def log_axes(axis, xlabel: str, ylabel: str, **legend_options) -> None:
@@ -31,5 +39,5 @@ def legend(axis, **options) -> None:
 def save(figure, target: Path, dpi: int = 110) -> None:
     """Lay out, write and close a figure (closed, so that a long sweep does not pile them up)."""
     figure.tight_layout()
-    figure.savefig(target, dpi=dpi)
+    write_figure(figure, target, dpi=dpi)
     pyplot().close(figure)

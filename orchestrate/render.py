@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_figure
 from orchestrate.plots import pyplot, save
 from orchestrate.results import Result, load_result
 
@@ -204,7 +205,7 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
     shown["magnification"], shown["time"] = factor, chosen
     stated = "undeformed" if factor == 0 else f"displacements magnified ×{factor:g}"
     figure.suptitle(f"{stated} (bodies drawn at x + {factor:g}·u)" if factor else stated, fontsize=9)
-    figure.savefig(target, dpi=dpi)
+    write_figure(figure, target, dpi=dpi)
     shown["layout"] = drawn_boxes(figure, [axis for axis in axes.flat])
     plt.close(figure)
     return shown
@@ -338,6 +339,9 @@ def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path
     return target
 
 
+IMAGES = ("fields", "contact_line", "beta_xt", "history")  # what render_all may draw, by file name
+
+
 def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int | None = None,
                *, announce=None, **fields_options) -> list[Path]:
     """Every image the run's files allow: fields (body files), contact line, β over x and t (with
@@ -362,7 +366,7 @@ def render_all(result: Result, folder: Path, image_format: str = "png", dpi: int
     if sum("contact" in files for _, files in result.outputs) >= 3 and glued(result):
         drawn("beta_xt", plot_bonding_evolution)
     drawn("history", plot_history)
-    for name in ("fields", "contact_line", "beta_xt"):  # an older drawing the files no longer give
+    for name in IMAGES:  # an older drawing the files no longer give
         stale = folder / f"{name}.{image_format}"
         if stale not in images:
             stale.unlink(missing_ok=True)
@@ -434,7 +438,8 @@ def colour_ranges(text: str):
 
 def add_arguments(parser) -> None:
     parser.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
-    parser.add_argument("--out", help="where to write the images (default: the run folder)")
+    parser.add_argument("--out", help="a new folder for the images (default: the run folder)")
+    add_force_argument(parser, NAME)
     parser.add_argument("--time", type=float, metavar="T", help="the output time of fields.* (default: the last; the nearest "
                                                   "written is used)")
     parser.add_argument("--fields", type=field_list, default=("vonMises", "zeta"), metavar="F1,F2",
@@ -469,6 +474,8 @@ def command(options) -> int:
             ranges = choice
     if given and ranges == "per-body":
         raise RuntimeError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
+    if options.out:
+        refuse_folder(Path(options.out), NAME, options.force)  # before the run folder is read
     result = load_result(options.folder)
     if options.time is not None:
         written = [t for t, _ in result.outputs]
@@ -476,7 +483,11 @@ def command(options) -> int:
         if nearest is not None and nearest != options.time:
             print(f"--time {options.time:g}: drawing t = {nearest:g}, the nearest output time (written: "
                   f"{', '.join(f'{t:g}' for t in written)})")
-    for path in render_all(result, Path(options.out or options.folder), options.image_format, options.dpi,
+    folder = Path(options.folder)
+    if options.out:
+        folder = claim_folder(Path(options.out), NAME, [f"{name}.{options.image_format}" for name in IMAGES],
+                              options.force)
+    for path in render_all(result, folder, options.image_format, options.dpi,
                            time=options.time, fields=options.fields, magnification=options.magnification,
                            ranges=given or ranges, cmap=options.cmap, size=options.size):
         print(f"wrote {path}")

@@ -6,18 +6,17 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from orchestrate.outputs import created
 from orchestrate.steps import ORDER
 
 
 def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
     """A table with the given columns (default: the first row's keys), other keys ignored; written
-    whole or not at all (a partial file renamed into place)."""
-    partial = path.with_suffix(path.suffix + ".partial")
-    with open(partial, "w", newline="") as handle:
+    whole or not at all (outputs.created)."""
+    with created(path, newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]), extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    partial.replace(path)
 
 
 def number(value) -> str:

@@ -44,6 +44,7 @@ def _expression(value):
         if not finite:
             raise ValueError(f"the number {str(value)[:40]} is not a finite double")
         value = repr(value)
+    value = value.strip()  # spaces around an expression change nothing: "-10*t " is "-10*t", one run
     try:
         expr.parse(value)
     except expr.ExpressionError as error:
@@ -68,7 +69,7 @@ def initial_value(name: str):
             except expr.ExpressionError as error:
                 raise ValueError(f"{error} (initial data are an expression of the position x, y)") from None
             if not isinstance(tree, expr.Number):
-                return value
+                return value.strip()  # as for loads (_expression): surrounding spaces make no other run
             value = tree.value
         if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise ValueError(f"give a number in {parameter.range} or an expression of x, y as a string")
@@ -443,6 +444,9 @@ def read_toml(path: Path, kind: str) -> dict:
         raise SceneError(f"{kind} file {path} cannot be read: {error.strerror}") from None
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: lists or tables nested deeper than the TOML reader can follow: a {kind} file "
+                         "holds keys and values a few levels deep") from None
 
 
 # An element of a list of tables by its boundary label: body1.boundary[label=4] is the one
@@ -487,6 +491,10 @@ def _by_index(data: dict, key: str, option: str) -> str:
         index = _labelled(items, label, f"{option} {key}: ", where)
         parts += [name, str(index)]
         node = items[index]
+        if key.endswith(f"{part}.label"):
+            raise SceneError(f"{option} {key}: [label={label}] picks the condition by its label, which cannot be "
+                             f"reassigned through it: name the condition by its index, {option} "
+                             f"{'.'.join(parts)}.label=...")
     return ".".join(parts)
 
 
@@ -572,6 +580,12 @@ def _model_at(path: tuple) -> type[BaseModel] | None:
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
+def is_table(value) -> bool:
+    """A table or a list of tables: the input of a check of a whole body or list of conditions,
+    whose contents in the message would bury it (the message names what is wrong)."""
+    return isinstance(value, dict) or (isinstance(value, list) and any(isinstance(item, dict) for item in value))
+
+
 def describe(error: dict) -> str:
     """One line naming the key, the value and what is allowed."""
     raw = tuple(error["loc"])
@@ -586,7 +600,7 @@ def describe(error: dict) -> str:
     if error["type"] == "missing":
         return f"{key}: missing (required)"
     message = error["msg"].removeprefix("Value error, ")
-    if error["type"] in ("model_type", "dict_type") or "input" not in error:
+    if error["type"] in ("model_type", "dict_type") or "input" not in error or is_table(error["input"]):
         return f"{key}: {message}"
     return f"{key} = {error['input']!r}: {message}"
 

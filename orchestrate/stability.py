@@ -14,6 +14,7 @@ import numpy as np
 
 from orchestrate.freefem import REPO
 from orchestrate.manifest import read_json
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_text
 from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.reports import stability_report, write_csv
 from orchestrate.scene import Scene
@@ -33,6 +34,7 @@ SOURCE_ALONE = {"body1.boundary.1.fy": "0", "body1.boundary.2.fx": "0", "body1.m
                 **{f"body{i}.damage.{key}": value for i in (1, 2)
                    for key, value in (("lambdaU", 0.0), ("lambdaD", 1.0), ("lambdaW", -9.0), ("zeta0", 0.101))}}
 ZETA_EQUILIBRIUM = 1.0 / (1.0 + 9.0)
+FILES = ("stability.csv", "README.md", "stability.png")
 
 
 def predicted_bound(folder: Path, fact: str, k: float) -> float | None:
@@ -195,20 +197,21 @@ GLUE_STIFFNESSES = (100.0, 1000.0, 10000.0)      # the glue-bound cases: p_τ
 
 
 def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_STIFFNESSES,
-              progress: bool | str = "auto") -> list[dict]:
+              progress: bool | str = "auto", force: bool = False) -> list[dict]:
     """Predicted and observed bounds of the explicit terms, on `scene_path` with coarse meshes:
     the paper's scheme's elastic k* for several E/η, with damage and with λ_u = 0; the implicit
     schemes far above it with strong damage; the damage source's bound per scheme (SOURCE_ALONE);
     and the tangential glue bound glueLimit/ρ_τ per scheme for several p_τ on the shear scene set
     up so that the glue alone sets the bound (GLUE_ALONE). progress: a bar of these cases and
-    each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
+    each run's bar, True, False or "auto" (where one can be seen: progress.py). `out`: a new
+    folder, or with `force` one an earlier study wrote (outputs.py)."""
     from functools import partial
 
     from orchestrate.progress import counter, wanted
 
     shown = wanted(progress)
     out = Path(out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    refuse_folder(out, f"study {NAME}", force)  # now, not after the runs
     eta = Scene.load(scene_path).body1.material.eta
     held = {"body1.boundary.1.fy": "-10*min(t, 1)", "body1.boundary.2.fx": "10*y*min(t, 1)",
             "body1.mesh.n": 6, "body2.mesh.n": 8}
@@ -225,11 +228,12 @@ def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_ST
             bar.set_postfix_str(label)
             rows += rows_of(Path(scratch) / "run", shown)
             bar.update(1)
+    claim_folder(out, f"study {NAME}", FILES, force)
     write_csv(out / "stability.csv", rows, columns=list(dict.fromkeys(key for row in rows for key in row)))
     sizes = "".join(f" --{flag} {listed(values)!r}" for flag, values, default in
                     (("young", young, YOUNG), ("p-tau", glue, GLUE_STIFFNESSES)) if tuple(values) != default)
-    (out / "README.md").write_text(stability_report(rows, f"python -m orchestrate study stability "
-                                                          f"{Path(scene_path).as_posix()}{sizes}"))
+    write_text(out / "README.md", stability_report(rows, f"python -m orchestrate study stability "
+                                                         f"{Path(scene_path).as_posix()}{sizes}"))
     plot(out / "stability.png", rows)
     return rows
 
@@ -298,7 +302,8 @@ def listed(values) -> str:
 def add_arguments(parser) -> None:
     parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
                                                                               "(default: scenes/paper.toml)")
-    parser.add_argument("--out", default="results/stability", help="where the table and report go")
+    parser.add_argument("--out", default="results/stability", help="a new folder for the table, report and plot")
+    add_force_argument(parser, f"study {NAME}")
     parser.add_argument("--young", type=positive_values, default=listed(YOUNG), metavar="E1,E2,...",
                         help="Young's moduli of the cases of the elastic bound (each with and without damage) "
                              "and of the implicit schemes ('' leaves them out)")
@@ -309,6 +314,7 @@ def add_arguments(parser) -> None:
 def command(options) -> int:
     import sys
 
-    stability(options.scene, options.out, young=options.young, glue=options.p_tau, progress=sys.stderr.isatty())
+    stability(options.scene, options.out, young=options.young, glue=options.p_tau, progress=sys.stderr.isatty(),
+              force=options.force)
     print((Path(options.out) / "README.md").read_text())
     return 0

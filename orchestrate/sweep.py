@@ -18,11 +18,14 @@ import hashlib
 import itertools
 import json
 import logging
+import math
+import os
 import re
 import tomllib
 from pathlib import Path
 
 from orchestrate.cli import split_assignment
+from orchestrate.freefem import InputError
 from orchestrate.manifest import IncompleteRun, verify_manifest
 from orchestrate.reports import write_csv
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
@@ -55,10 +58,14 @@ def grid_values(key: str, text: str) -> list:
     rather than swept as two wrong values."""
     if text.startswith("["):
         try:
-            return tomllib.loads(f"values = {text}")["values"]
+            values = tomllib.loads(f"values = {text}")["values"]
         except tomllib.TOMLDecodeError as error:
             raise SceneError(f"--grid {key}={text}: not a TOML list ({error}); write {GRID_FORMS}, "
                              f"e.g. --grid {LIST_EXAMPLE}") from None
+        except RecursionError:
+            raise too_deep(f"--grid {key}") from None
+        require_shallow(values, f"--grid {key}")
+        return values
     pieces = [piece.strip() for piece in text.split(",")]
     for piece in pieces:
         if not piece or cut_short(piece):
@@ -74,6 +81,36 @@ def cut_short(piece: str) -> bool:
         or any(piece.count(quote) % 2 for quote in "\"'")
 
 
+# Lists and tables nested in one key's values: a swept list of boundary conditions is 3 deep. Deeper
+# is no grid, and Python's recursion (the TOML reader, the scene's validation) would fail nameless.
+MAX_NESTING = 16
+
+
+def nests_deeper(values: list, limit: int = MAX_NESTING) -> bool:
+    """Lists or tables nested more than `limit` deep inside `values` (a grid key's own list)."""
+    return any(_nests(value, limit) for value in values)
+
+
+def _nests(value, limit: int) -> bool:
+    if not isinstance(value, (list, dict)):
+        return False
+    if limit == 0:
+        return True
+    inner = value.values() if isinstance(value, dict) else value
+    return any(_nests(item, limit - 1) for item in inner)
+
+
+def require_shallow(values: list, where: str) -> None:
+    if nests_deeper(values):
+        raise too_deep(where)
+
+
+def too_deep(where: str) -> SceneError:
+    return SceneError(f"{where}: its values nest lists or tables more than {MAX_NESTING} deep; a grid gives each key "
+                      "a list of values (a list of lists to sweep a list, a list of lists of tables to sweep "
+                      "boundary conditions)")
+
+
 def read_grid_file(path: str | Path) -> dict[str, list]:
     """A grid file: TOML whose keys are scene keys and values lists, `"body1.boundary[label=4].fy" =
     ["-10*t", "-20*t"]` one a line, or in tables (`[glue]` then `gammaNu = [0, 1]`); keys are
@@ -87,6 +124,9 @@ def read_grid_file(path: str | Path) -> dict[str, list]:
 def _flatten(table: dict, prefix: str, grid: dict, path: Path) -> None:
     for name, value in table.items():
         key = prefix + name
+        if isinstance(value, dict) and prefix.count(".") >= MAX_NESTING:
+            raise SceneError(f"grid file {path}: {key[:80]}... nests tables more than {MAX_NESTING} deep: no scene "
+                             "key is that long (e.g. body1.boundary.1.fy)")
         if isinstance(value, dict):
             _flatten(value, f"{key}.", grid, path)
         elif not isinstance(value, list):
@@ -95,6 +135,7 @@ def _flatten(table: dict, prefix: str, grid: dict, path: Path) -> None:
         elif key in grid:
             raise SceneError(f"grid file {path}: {key} is given twice: list all its values once")
         else:
+            require_shallow(value, f"grid file {path}: {key}")
             grid[key] = value
 
 
@@ -173,11 +214,26 @@ def completed_before(folder: Path, digest: str) -> bool:
         return False
 
 
+def require_importable_main() -> None:
+    """A LocalCluster's workers are spawned processes, which first run the main script again from
+    its file: a script read from standard input (`python - < script.py`) has none, and every worker
+    would fail with Dask's "Nanny failed to start"."""
+    import __main__
+
+    path = getattr(__main__, "__file__", None)
+    if path is not None and getattr(__main__, "__spec__", None) is None and not os.path.isfile(path):
+        raise InputError(f"the sweep's worker processes cannot start: they import the main script again, and "
+                         f"{path} is no file (a script read from standard input, `python - < script.py`). Save the "
+                         "script to a file and run `python script.py`, or give scheduler= a running Dask "
+                         "scheduler's address")
+
+
 def make_client(workers: int, scheduler: str | None):
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
         return Client(scheduler)
+    require_importable_main()
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)
     return Client(cluster)
@@ -193,11 +249,27 @@ def resolved_values(scene: Scene, assignment: dict, fields: dict[str, str]) -> d
     return {key: scene_value(data, fields[key]) for key in assignment}
 
 
-def plan(scene: str | Path, grid: dict[str, list], out: Path, base: dict | None = None) -> tuple[list, list]:
+# Combinations a sweep runs without being told to: above, planning alone takes minutes (a few ms a
+# scene) and the runs days, so a grid of that size is more likely a slip than a plan.
+MAX_UNASKED = 1000
+
+
+def require_asked(grid: dict[str, list], yes: bool) -> None:
+    count = math.prod(len(values) for values in grid.values())
+    if count > MAX_UNASKED and not yes:
+        sizes = " × ".join(f"{len(values)} ({key})" for key, values in grid.items())
+        raise SceneError(f"--grid: {count} combinations ({sizes}), above the {MAX_UNASKED} a sweep runs unasked: "
+                         "pass --yes (yes=True) to plan and run them all, or list fewer values")
+
+
+def plan(scene: str | Path, grid: dict[str, list], out: Path, base: dict | None = None,
+         yes: bool = False) -> tuple[list, list]:
     """Rows for runs of the scene with each combination of the grid's values (on top of `base`),
     in folders of `out` named by the values that run, and the jobs among them still to run. Its
-    keys are checked first; two combinations that make the same run are refused."""
+    keys are checked first; more than MAX_UNASKED combinations need `yes`, and two combinations
+    that make the same run are refused."""
     require_distinct(grid)
+    require_asked(grid, yes)
     fields = grid_fields(scene, grid, base)
     return plan_runs(scene, [dict(zip(grid, values)) for values in itertools.product(*grid.values())], out, base,
                      fields)
@@ -234,17 +306,17 @@ def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict 
 
 def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict | None = None, *,
           workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto",
-          trust_geo: bool = False) -> list[dict]:
+          yes: bool = False, trust_geo: bool = False) -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → lists of values) over the scene with
     `base` overrides; returns the rows of sweep.csv (written in `out`, also when interrupted). Keys
     are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label.
-    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py);
-    trust_geo: as for `run`."""
+    progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py); yes:
+    run more than MAX_UNASKED combinations; trust_geo: as for `run`."""
     from orchestrate.progress import wanted
 
     shown = wanted(progress)
     out = Path(out).resolve()
-    rows, jobs = plan(scene, grid, out, base)
+    rows, jobs = plan(scene, grid, out, base, yes)
     out.mkdir(parents=True, exist_ok=True)
     try:
         run_jobs(jobs, workers, scheduler, shown, trust_geo)
@@ -268,7 +340,6 @@ def mark_interrupted(jobs) -> None:
 def stop_workers(pids: list[int]) -> None:
     """End the worker processes of our LocalCluster now (closing it lets their runs go on for
     seconds); their FreeFem++ children die with them (freefem.py)."""
-    import os
     import signal
 
     for pid in pids:
@@ -289,8 +360,6 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool, trust_ge
 
     from orchestrate.progress import counter
     from orchestrate.runner import signals_as_interrupt
-
-    import os
 
     client = make_client(workers, scheduler)
     own = list(client.run(os.getpid).values()) if client.cluster is not None else []
@@ -346,6 +415,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
     parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
+    parser.add_argument("--yes", action="store_true",
+                        help=f"run a grid of more than {MAX_UNASKED} combinations (refused without it: likely a "
+                             "slip)")
     parser.add_argument("--images", action="store_true",
                         help="render every run's images (off by default: a sweep's figures are in sweep.csv, and "
                              "`render` draws any run's images later)")
@@ -362,7 +434,7 @@ def command(options) -> int:
     if not options.images and "output.images" not in grid:
         base.setdefault("output.images", False)
     rows = sweep(options.scene, grid, options.out, base,
-                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty(),
+                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty(), yes=options.yes,
                  trust_geo=options.trust_geo)
     width = max(len(row["folder"]) for row in rows)
     for row in rows:

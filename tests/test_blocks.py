@@ -194,6 +194,31 @@ def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
         common_states(blocks, Result(tmp_path / "empty"))
 
 
+def test_compare_writes_a_new_folder_and_replaces_only_its_own_files_never_through_a_link(blocks, tmp_path):
+    """A second comparison into one folder asks for --force; --force replaces its own three files
+    (a link among them unlinked, its target kept); a folder of the user's files is refused."""
+    from orchestrate.compare import compare, write
+    from orchestrate.outputs import OutputError
+
+    comparison = compare(blocks, blocks)
+    out, victim = tmp_path / "c", tmp_path / "victim.png"
+    write(comparison, out)
+    with pytest.raises(OutputError, match="exists .*: pass --force to replace its files"):
+        write(comparison, out)
+    victim.write_bytes(b"the user's")
+    (out / "history.png").unlink()
+    (out / "history.png").symlink_to(victim)
+    write(comparison, out, force=True)
+    assert victim.read_bytes() == b"the user's"
+    assert not (out / "history.png").is_symlink() and (out / "history.png").stat().st_size > 10000
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "report.txt").write_text("the user's")
+    with pytest.raises(OutputError, match="holds files no orchestrate command recorded writing"):
+        write(comparison, mine, force=True)
+    assert (mine / "report.txt").read_text() == "the user's"
+
+
 def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(tmp_path):
     """T = 1e-9 with N = 4 and N = 2: each state of the coarser run is paired with the state at its
     own instant, never with a neighbour that lies within an absolute tolerance."""

@@ -52,3 +52,37 @@ def test_the_image_and_the_errors(table, capsys):
     (table / "sweep.csv").write_text("")
     with pytest.raises(InputError, match="holds no sweep's rows"):
         read_sweep(table)
+
+
+def test_a_label_that_is_bad_tex_is_drawn_as_written(tmp_path):
+    """A swept value (or key) with dollar signs is an expression, not mathtext: `$x^$` is drawn as
+    written, not a 35-frame traceback of matplotlib's TeX parser."""
+    import matplotlib
+
+    rows = [{"a$x^$": value, "b": other, "folder": f"r{i}", "status": "completed", "normV": float(i)}
+            for i, (value, other) in enumerate([("$x^$", r"$\frac{$"), ("y", r"$\frac{$"), ("$x^$", "1$")])]
+    write_table(tmp_path / "sweep.csv", rows, ["a$x^$", "b"])
+    with matplotlib.rc_context({"svg.fonttype": "none"}):  # text kept as text, to be read back
+        for x in ("a$x^$", "b"):
+            assert main(["plot", str(tmp_path), "--y", "normV", "--x", x, "--out", str(tmp_path / f"{x}.svg")]) == 0
+    drawn = (tmp_path / "a$x^$.svg").read_text()
+    assert "$x^$" in drawn and r"b = $\frac{$" in drawn and ">a$x^$<" in drawn
+    assert "b = 1$" in drawn and r"a$x^$ = $x^$" in (tmp_path / "b.svg").read_text()
+
+
+def test_an_existing_image_is_replaced_only_with_force_and_only_one_drawn_here(table, capsys):
+    """A second plot to the same file asks for --force; --force replaces an image this program
+    drew (its Creator says so), never another file, and nothing is written through a link."""
+    target = plot_sweep(table, "normV")
+    assert main(["plot", str(table), "--y", "normV"]) == 2
+    assert f"--out {target} exists: pass --force to replace it" in capsys.readouterr().err
+    assert plot_sweep(table, "normV", force=True) == target
+    photo, victim = table / "photo.png", table / "victim.png"
+    photo.write_bytes(b"\x89PNG the user's")
+    assert main(["plot", str(table), "--y", "normV", "--out", str(photo), "--force"]) == 2
+    assert "was not written by this program" in capsys.readouterr().err and photo.read_bytes() == b"\x89PNG the user's"
+    victim.write_bytes(target.read_bytes())  # one of ours, behind a link
+    (table / "link.png").symlink_to(victim)
+    with pytest.raises(InputError, match="link.png is a symbolic link: give another file name"):
+        plot_sweep(table, "normV", target=table / "link.png", force=True)
+    assert victim.read_bytes() == target.read_bytes()

@@ -1,5 +1,5 @@
 """docs/scene-format.md is the reference of the scene format users read: it must be the page the
-schema gives today (`python -m orchestrate reference` rewrites it), and name every key a scene
+schema gives today (`python -m orchestrate reference --force` rewrites it), and name every key a scene
 may hold, with the table's limits where the schema checks them itself."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from orchestrate.reference import PAGE, page
 
 
 def test_the_committed_reference_is_the_schema_s():
-    assert PAGE.read_text() == page(), "docs/scene-format.md is stale: run python -m orchestrate reference"
+    assert PAGE.read_text() == page(), "docs/scene-format.md is stale: run python -m orchestrate reference --force"
 
 
 def test_every_table_parameter_of_a_scene_is_in_the_reference_with_its_range_and_unit():

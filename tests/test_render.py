@@ -9,7 +9,9 @@ import pytest
 from PIL import Image
 
 from orchestrate import run
+from orchestrate.cli import main
 from orchestrate.freefem import REPO
+from orchestrate.outputs import RECORD
 from orchestrate.render import render_fields
 from orchestrate.results import cell_field
 
@@ -67,7 +69,7 @@ def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
                           cwd=REPO, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "fields.svg").read_text().lstrip().startswith("<?xml")
-    assert {p.suffix for p in tmp_path.iterdir()} == {".svg"}
+    assert {p.suffix for p in tmp_path.iterdir() if p.name != RECORD} == {".svg"}
     for options, words in [(["--fields", "temperature"], ["no field temperature", "vonMises"]),
                            (["--range", "per-bod"], ["shared, per-body, or FIELD=LOW,HIGH"]),
                            (["--size", "0,0"], ["(0, 100] inches"]), (["--dpi", "0"], ["[10, 2400]"])]:
@@ -79,6 +81,23 @@ def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
                             cwd=REPO, capture_output=True, text=True)
     assert signed.returncode == 0, signed.stderr
     assert "--time 0.7: drawing t = 0.5, the nearest output time (written: 0.5, 1)" in signed.stdout
+
+
+def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, tmp_path, capsys):
+    """render --out into a folder it drew asks for --force; --force replaces its images (a link
+    among them unlinked, its target kept) and refuses a folder that holds anything else."""
+    out, victim = tmp_path / "images", tmp_path / "victim.png"
+    victim.write_bytes(b"the user's")
+    assert main(["render", str(coarse.folder), "--out", str(out), "--fields", "zeta"]) == 0
+    assert main(["render", str(coarse.folder), "--out", str(out), "--fields", "zeta"]) == 2
+    assert "pass --force to replace its files" in capsys.readouterr().err
+    (out / "history.png").unlink()
+    (out / "history.png").symlink_to(victim)
+    assert main(["render", str(coarse.folder), "--out", str(out), "--fields", "zeta", "--force"]) == 0
+    assert victim.read_bytes() == b"the user's" and not (out / "history.png").is_symlink()
+    (out / "notes.txt").write_text("the user's")
+    assert main(["render", str(coarse.folder), "--out", str(out), "--force"]) == 2
+    assert "also holds notes.txt" in capsys.readouterr().err and (out / "notes.txt").exists()
 
 
 def test_a_field_uniform_to_round_off_is_shown_as_one_colour():

@@ -176,3 +176,18 @@ def test_a_label_of_two_conditions_is_refused_naming_both(tmp_path):
 def test_two_keys_naming_one_value_are_refused():
     with pytest.raises(SceneError, match=r"body1.boundary.1.fy and body1.boundary\[label=4\].fy name the same value"):
         Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.1.fy": "1", "body1.boundary[label=4].fy": "2"})
+
+
+def test_a_label_selected_by_label_cannot_be_reassigned_and_a_body_s_error_is_one_line():
+    """[label=4].label=5 would move the condition its key names; and a check of a whole body
+    (label 5 clamped and loaded) names the body, not every value in it."""
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary[label=4].label": 5})
+    assert str(error.value) == ("--set body1.boundary[label=4].label: [label=4] picks the condition by its label, "
+                                "which cannot be reassigned through it: name the condition by its index, --set "
+                                "body1.boundary.1.label=...")
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.1.label": 5})
+    assert str(error.value).splitlines()[1:] == ["body1: label 5: a traction on a boundary whose displacement is "
+                                                 "prescribed"]
+    assert Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.1.label": 3}).body1.boundary[1].label == 3

@@ -189,3 +189,54 @@ def test_a_grid_key_that_names_a_set_value_is_refused_before_anything_runs(tmp_p
             plan(SCENE, {grid_key: ["-10*t", "-20*t"] if "fy" in grid_key else [20, 40]}, tmp_path / "out",
                  {**BASE, set_key: "-5*t" if "fy" in set_key else 80})
     assert not (tmp_path / "out").exists()
+
+
+def test_a_grid_above_the_cap_asks_for_yes_before_building_a_scene(tmp_path):
+    """1025 combinations: refused at once, saying the count and the cap (planning them takes a
+    few ms each, a million of them hours), and planned with yes."""
+    grid = {"glue.gammaNu": [float(value) for value in range(41)], "glue.gammaR": [float(value) for value in range(25)]}
+    with pytest.raises(SceneError, match=r"--grid: 1025 combinations \(41 \(glue.gammaNu\) × 25 \(glue.gammaR\)\), "
+                                         r"above the 1000 a sweep runs unasked: pass --yes"):
+        plan(SCENE, grid, tmp_path, BASE)
+    assert len(plan(SCENE, {**grid, "glue.gammaNu": [0.0, 1.0]}, tmp_path, BASE)[0]) == 50
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "sweep", str(SCENE), "--grid", "glue.gammaNu=[" +
+                           ",".join(map(str, grid["glue.gammaNu"])) + "]", "--grid", "glue.gammaR=[" +
+                           ",".join(map(str, grid["glue.gammaR"])) + "]", "--out", str(tmp_path / "s")],
+                          capture_output=True, text=True, cwd=REPO, timeout=60)
+    assert done.returncode == 2 and "pass --yes (yes=True)" in done.stderr and "--yes" in subprocess.run(
+        [sys.executable, "-m", "orchestrate", "sweep", "--help"], capture_output=True, text=True, cwd=REPO).stdout
+
+
+def test_expressions_that_differ_in_surrounding_spaces_are_one_value(tmp_path):
+    grid = {"body1.boundary[label=4].fy": ["-10*t", "-10*t "]}
+    with pytest.raises(SceneError, match=r"'-10\*t'} and .*'-10\*t '} are the same run: list each value once"):
+        plan(SCENE, grid, tmp_path, BASE)
+    spaced, plain = (plan(SCENE, {"body1.boundary[label=4].fy": [value]}, tmp_path, BASE)[0][0]
+                     for value in (" -10*t", "-10*t"))
+    assert spaced["folder"] == plain["folder"]  # one run, one folder
+
+
+def test_a_sweep_from_a_script_on_standard_input_says_to_save_it_to_a_file(tmp_path):
+    """Dask's spawned workers run the main script again from its file: `python - < script.py`
+    has none (Dask says only "Nanny failed to start")."""
+    script = (f"from orchestrate import sweep\nsweep({str(SCENE)!r}, {{'glue.gammaNu': [0, 1]}}, {str(tmp_path)!r}, "
+              f"{BASE!r}, workers=1, progress=False)\n")
+    done = subprocess.run([sys.executable, "-"], input=script, capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert done.returncode == 1 and "Nanny" not in done.stderr
+    assert "<stdin> is no file (a script read from standard input, `python - < script.py`). Save the script to a " \
+           "file and run `python script.py`" in done.stderr.splitlines()[-1]
+
+
+def test_a_grid_nested_too_deeply_names_its_file(tmp_path):
+    path = tmp_path / "grid.toml"
+    for depth in (18, 3000):  # past the grid's limit; past what the TOML reader can follow
+        path.write_text("x = " + "[" * depth + "1" + "]" * depth + "\n")
+        with pytest.raises(SceneError, match=re.escape(str(path))):
+            grid_of([], path)
+    path.write_text(".".join(["a"] * 3000) + " = [1]\n")
+    with pytest.raises(SceneError, match=re.escape(f"grid file {path}: a.a.a") + ".* nests tables more than 16 deep"):
+        grid_of([], path)
+    path.write_text('"output.times" = [[0.5, 1.0], [1.0]]\n')  # a list of lists sweeps a list
+    assert grid_of([], path) == {"output.times": [[0.5, 1.0], [1.0]]}
+    with pytest.raises(SceneError, match="--grid time.N: its values nest lists or tables more than 16 deep"):
+        grid_of(["time.N=" + "[" * 3000 + "]" * 3000], None)

@@ -1,0 +1,182 @@
+"""Files the commands write outside a run folder (compare, plot, render --out, the studies, bench,
+reference), under the runner's policy (runner.py): into a new folder, or refused; with --force
+only what the same command wrote there is replaced, never through a symbolic link.
+
+A folder is a command's when it holds RECORD, written before any of its files: the command and
+the names it writes there, so that an interrupted command's files count as its own too. --force
+removes the files it lists (a link among them is unlinked, never followed), keeps the folders of
+runs it lists (the runner checks every run in them before reusing it), and refuses a folder that
+holds anything else, naming it. An empty folder counts as a new one.
+
+A single file (plot --out fig.png, reference --out page.md) carries its mark inside, as no record
+beside it could without a second file to keep: an image has MARK as its Creator (PNG, PDF and SVG
+metadata, kept as plain text), a page its own opening sentence. An existing file is replaced
+with --force only when it holds its mark, and a link never.
+
+Every file is made under a temporary name in its own folder (O_CREAT | O_EXCL | O_NOFOLLOW: never
+an existing file, never through a link) and renamed onto its name, so no reader sees it half
+written and a link by that name is replaced, not followed.
+"""
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from contextlib import contextmanager
+from pathlib import Path
+
+from orchestrate.freefem import InputError
+
+RECORD = "made-by.json"
+MARK = "written by python -m orchestrate"  # the Creator of every image the package draws
+LARGEST_OWN_FILE = 1 << 30  # bytes: a bigger file is no image or page of ours, and is not read
+
+
+class OutputError(InputError):
+    """An output folder or file that is not this command's to write, refused before anything is."""
+
+
+@contextmanager
+def created(path: Path, mode: str = "w", newline: str | None = None):
+    """A handle on a new file that becomes `path` (replacing what is there) once the block ends
+    without an error; nothing is left behind when it raises."""
+    temporary = path.with_name(f".{secrets.token_hex(6)}.writing")  # short: `path`'s own name may be at NAME_MAX
+    descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)
+    try:
+        text = {} if "b" in mode else {"encoding": "utf-8", "newline": newline}
+        with os.fdopen(descriptor, mode, **text) as handle:
+            yield handle
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def write_text(path: Path, text: str) -> None:
+    with created(path) as handle:
+        handle.write(text)
+
+
+def write_figure(figure, path: Path, **options) -> None:
+    """A matplotlib figure into `path`, in the format its suffix names, marked as ours."""
+    with created(path, "wb") as handle:
+        figure.savefig(handle, format=path.suffix.lstrip("."), metadata={"Creator": MARK}, **options)
+
+
+def add_force_argument(parser, command: str, single_file: bool = False) -> None:
+    """--force, for a command that writes a folder (or, `single_file`, one file) outside a run."""
+    if single_file:
+        replaced = "the --out file if this program wrote it (an image it drew, a page it generated), never a link"
+    else:
+        replaced = (f"the files an earlier `{command}` wrote in --out (its {RECORD} lists them); a folder that holds "
+                    "anything else is refused, and nothing is written through a link")
+    parser.add_argument("--force", action="store_true", help=f"replace {replaced}")
+
+
+def command_line(command: str) -> str:
+    return f"python -m orchestrate {command}"
+
+
+def read_record(folder: Path) -> dict | None:
+    """The record of a folder (None: none, or not one this package wrote), read without following a link."""
+    try:
+        descriptor = os.open(folder / RECORD, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    with os.fdopen(descriptor, encoding="utf-8") as handle:
+        try:
+            record = json.load(handle)
+        except (ValueError, UnicodeDecodeError):
+            return None
+    fields = {"command": str, "files": list, "folders": list}
+    if not isinstance(record, dict) or any(not isinstance(record.get(key), kind) for key, kind in fields.items()):
+        return None
+    return record
+
+
+def listed(names) -> str:
+    names = sorted(names)
+    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+
+
+def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out") -> None:
+    """Raises unless `command` may write into `folder`: a new or empty folder, or with `force` one
+    whose record is this command's and which holds nothing else."""
+    if not os.path.lexists(folder):
+        return
+    if folder.is_symlink():
+        raise OutputError(f"{option} {folder} is a symbolic link: give a folder's own path (nothing is written "
+                          "through a link)")
+    if not folder.is_dir():
+        raise OutputError(f"{option} {folder} is a file, not a folder: choose another {option}")
+    present = set(os.listdir(folder))
+    if not present:
+        return
+    record = read_record(folder)
+    if record is None:
+        raise OutputError(f"{option} {folder} exists and holds files no orchestrate command recorded writing "
+                          f"({listed(present)}; no {RECORD}): choose a new or empty folder")
+    if record["command"] != command:
+        raise OutputError(f"{option} {folder} holds the files of `{command_line(record['command'])}`, not of "
+                          f"`{command_line(command)}`: choose another {option}")
+    if not force:
+        raise OutputError(f"{option} {folder} exists (written by `{command_line(command)}` before): pass --force "
+                          f"to replace its files, or choose another {option}")
+    foreign = present - {RECORD, *record["files"], *record["folders"]}
+    if foreign:
+        raise OutputError(f"{option} {folder} also holds {listed(foreign)}, which `{command_line(command)}` did not "
+                          f"write: --force replaces only its own files; move those away or choose another {option}")
+    odd = [name for name in record["folders"] if name in present and not (folder / name).is_symlink()
+           and not (folder / name).is_dir()]
+    if odd:
+        raise OutputError(f"{option} {folder}: {listed(odd)} should be a folder of runs and is not: remove it or "
+                          f"choose another {option}")
+
+
+def claim_folder(folder: Path, command: str, files, force: bool, folders=(), option: str = "--out") -> Path:
+    """`folder` ready for `command` to write `files` in (and runs in `folders`): checked as by
+    refuse_folder, made if new, emptied of the files its record lists, and recorded as this
+    command's before anything is written."""
+    refuse_folder(folder, command, force, option)
+    folder.mkdir(parents=True, exist_ok=True)
+    old = read_record(folder) or {"files": [], "folders": []}
+    for name in old["files"] + old["folders"]:
+        path = folder / name
+        if path.is_symlink() or (name in old["files"] and path.is_file()):
+            path.unlink()
+        elif name in old["files"] and os.path.lexists(path):
+            raise OutputError(f"{option} {folder}: {name} was a file of `{command_line(command)}` and is now a "
+                              f"folder: remove it or choose another {option}")
+    record = {"command": command, "files": sorted(files), "folders": sorted(folders),
+              "note": "the files this command wrote here: --force replaces these and refuses a folder holding others"}
+    write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+    return folder
+
+
+def refuse_file(path: Path, force: bool, mark: str, option: str = "--out") -> None:
+    """Raises unless `path` may be written: no such file, or with `force` a regular file that holds
+    `mark` (one this program wrote)."""
+    if not os.path.lexists(path):
+        return
+    if path.is_symlink():
+        raise OutputError(f"{option} {path} is a symbolic link: give another file name (nothing is written "
+                          "through a link)")
+    if not path.is_file():
+        raise OutputError(f"{option} {path} exists and is not a file: choose another {option}")
+    if not force:
+        raise OutputError(f"{option} {path} exists: pass --force to replace it (only a file this program "
+                          f"wrote), or choose another {option}")
+    if not holds_mark(path, mark):
+        raise OutputError(f"{option} {path} exists and was not written by this program (it lacks '{mark}'): "
+                          f"--force replaces only the program's own files; choose another {option}")
+
+
+def holds_mark(path: Path, mark: str) -> bool:
+    try:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return False
+    with os.fdopen(descriptor, "rb") as handle:
+        if os.fstat(handle.fileno()).st_size > LARGEST_OWN_FILE:
+            return False
+        return mark.encode() in handle.read()
