@@ -45,8 +45,8 @@ def program_files(main: Path) -> list[Path]:
                     raise FileNotFoundError(f"{main}: includes {name}, which is not there")
                 found.add(path)
                 pending.append(path)
-    data = {path for folder in {path.parent for path in found} for path in folder.iterdir()
-            if path.is_file() and path.suffix != ".edp"}
+    data = {path for folder in {path.parent for path in found} for path in folder.iterdir()  # not an editor's .swp
+            if path.is_file() and path.suffix != ".edp" and not path.name.startswith(".")}
     return sorted(found | data) + [file for name in sorted(plugins) for file in plugin_files(main.parent, name)]
 
 
@@ -61,7 +61,7 @@ def plugin_files(edp: Path, name: str) -> list[Path]:
 
 
 @functools.cache
-def file_digest(path: Path, size: int, mtime: int) -> str:
+def file_digest(path: Path, size: int, mtime: int, inode: int, changed: int) -> str:
     """A file's SHA-256, computed once per content stamp (the executable is 16 MB)."""
     sha = hashlib.sha256()
     with open(path, "rb") as handle:
@@ -75,7 +75,7 @@ def stamped_digest(path: Path) -> str:
         status = path.stat()
     except FileNotFoundError:
         return "missing"  # a plugin not built yet: bin/plugins check refuses the run
-    return file_digest(path, status.st_size, status.st_mtime_ns)
+    return file_digest(path, status.st_size, status.st_mtime_ns, status.st_ino, status.st_ctime_ns)
 
 
 def solver_identity(main: Path = EDP / "main.edp") -> str:

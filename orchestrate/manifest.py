@@ -32,7 +32,7 @@ DRIVER_FILE = re.compile(r"(history\.csv|params_used\.json|solution\.pvd|run\.js
                          r"|(body1|body2|contact)_[0-9]{4,}\.vtu|state_[0-9]{4,}\.txt)")
 RUNNER_FILES = ("inputs.json", "scene.toml", "scene.idp", "run.log", "body1.msh", "body2.msh", "summary.json",
                 "steps.json")
-IMAGE = re.compile(r"[a-z0-9_-]{1,64}\.png")  # render's, made anew from the data: outside the manifest
+IMAGE = re.compile(r"[a-z0-9_-]{1,64}\.(png|pdf|svg)")  # render's, made anew from the data: outside the manifest
 SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
@@ -200,6 +200,8 @@ def verify_manifest(folder: Path) -> dict:
         if not (isinstance(entry, dict) and entry.get("bytes") == path.stat().st_size
                 and SHA256.fullmatch(str(entry.get("sha256"))) and digest(path) == entry["sha256"]):
             raise IncompleteRun(f"{path}: changed since the run finished (size or SHA-256 differ from the manifest)")
+    if manifest["inputs"] != read_json(folder / "inputs.json"):  # what a sweep's completion key is read from
+        raise IncompleteRun(f"{folder / MANIFEST}: its inputs are not those of inputs.json (the manifest was changed)")
     written = facts(folder).get("files")
     if not isinstance(written, list) or not {FACTS, *map(str, written)} <= listed \
             or not listed - set(map(str, written)) <= {FACTS, *RUNNER_FILES}:

@@ -206,3 +206,14 @@ def test_resume_refuses_a_checkpoint_of_another_run_identity(tmp_path):
     (partial / "checkpoint-a.txt").write_bytes(sealed(["parameters 0"], 7, "0" * 64))
     with pytest.raises(RunError, match="a checkpoint of a run of other inputs"):
         run(scene, tmp_path / "run", resume=True, progress=False)
+
+
+def test_a_manifest_whose_inputs_were_changed_is_refused(copy_of):
+    """The completion key of a sweep is read from the manifest's inputs: they must be those of
+    inputs.json, which the manifest hashes."""
+    folder = copy_of(0)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest["inputs"]["digest"] = "deadbeef"
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(IncompleteRun, match="its inputs are not those of inputs.json"):
+        load_result(folder)
