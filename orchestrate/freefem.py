@@ -25,6 +25,8 @@ import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
+from orchestrate.identity import solver_identity
+
 REPO = Path(__file__).resolve().parent.parent
 MAIN = REPO / "edp" / "main.edp"
 PLUGIN_DIR = Path("/usr/lib/freefem++")
@@ -174,7 +176,10 @@ def freefem_command(script: Path | str, args=(), defines: dict[str, str] | None 
     # -D must follow the script: before it, FreeFEM takes the first such argument for the script.
     command = [freefem_binary(), "-nw", str(script)]
     command += [f"-D{name}={value}" for name, value in (defines or {}).items()]
-    return command + list(map(str, args))
+    args = list(map(str, args))
+    if Path(script).resolve() == MAIN and "-solverIdentity" not in args:  # as bin/ff: checkpoints know their code
+        command += ["-solverIdentity", solver_identity(MAIN)]  # before the caller's: a last flag keeps its place
+    return command + args
 
 
 def stop_group(process: subprocess.Popen) -> None:

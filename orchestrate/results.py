@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from functools import cached_property
@@ -11,7 +12,7 @@ import meshio
 import numpy as np
 
 from orchestrate.freefem import REPO
-from orchestrate.manifest import FACTS, MANIFEST, check_files, verify_manifest
+from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, verify_manifest
 
 PARTS = ("body1", "body2", "contact")
 
@@ -110,8 +111,12 @@ def load_result(folder: str | Path) -> Result:
     whole (orchestrate/manifest.py). Raises FileNotFoundError for a folder that is no run, and
     IncompleteRun for one that is cut short, unfinished or changed."""
     folder = Path(folder)
+    runner_files = [name for name in ("inputs.json", "summary.json", "scene.toml") if os.path.lexists(folder / name)]
     if (folder / MANIFEST).is_file():
         verify_manifest(folder)
+    elif runner_files:  # the runner writes its manifest last: without it the run is unfinished or changed
+        raise IncompleteRun(f"{folder}: a run of orchestrate ({', '.join(runner_files)}) without its manifest.json: "
+                            "unfinished, or changed since; not trusted")
     elif (folder / FACTS).is_file():
         check_files(folder)
     else:

@@ -218,17 +218,17 @@ CHECKPOINTS = ("checkpoint-a.txt", "checkpoint-b.txt")
 
 def sealed_checkpoint(path: Path) -> tuple[int, str] | None:
     """(step, run identity) of a whole checkpoint file: its last line "end <step>" repeats its
-    first, "checkpoint <step>", and the line before is the SHA-256 of all above it (the driver's
-    rule, edp/lib/checkpoint.idp); None for any other file."""
+    first, "checkpoint <step>", its third is "run <identity>" and the line before the last is the
+    SHA-256 of all above it (the driver's rule, edp/lib/checkpoint.idp); None for any other file."""
     try:
         data = path.read_bytes()
     except OSError:
         return None
     lines = data.split(b"\n")
-    if len(lines) < 5 or lines[-1] != b"" or not lines[-3].startswith(b"seal "):
+    if len(lines) < 6 or lines[-1] != b"" or not lines[-3].startswith(b"seal "):
         return None
     body = b"\n".join(lines[:-3]) + b"\n"
-    first, identity = lines[0].split(), lines[1].split()
+    first, identity = lines[0].split(), lines[2].split()
     whole = (len(first) == 2 and first[0] == b"checkpoint" and lines[-2] == b"end " + first[1]
              and len(identity) == 2 and identity[0] == b"run"
              and lines[-3][len(b"seal "):].decode(errors="replace") == hashlib.sha256(body).hexdigest())

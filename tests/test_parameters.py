@@ -7,6 +7,7 @@ import pytest
 
 from orchestrate import Scene, SceneError, run
 from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.identity import solver_identity
 from orchestrate.parameters import PARAMETERS
 
 CHECK = REPO / "edp" / "tools" / "check.edp"
@@ -53,8 +54,9 @@ def test_the_driver_by_hand_runs_with_the_table_defaults(tmp_path):
     used = json.loads((tmp_path / "params_used.json").read_text())
     for parameter in PARAMETERS.values():
         for name in parameter.driver_names():
-            if name not in ("out",):
+            if name not in ("out", "solverIdentity"):  # the launcher gives both (freefem_command: the solver's)
                 assert used[name] == expected(parameter), name
+    assert used["solverIdentity"] == solver_identity()
 
 
 def test_help_lists_every_parameter_with_its_default_and_exits_0():

@@ -127,6 +127,19 @@ def test_other_loads_or_initial_data_are_refused(tmp_path, change, words):
     assert done.returncode == 3 and words in done.error_line, done.error_line
 
 
+def test_a_load_changed_only_between_the_sampled_times_is_refused_by_the_scene_s_code(tmp_path):
+    """The fingerprint samples the loads at 0.3T and T (here 4.5 and 15): a load that differs only in
+    between is told apart by the scene file's code (its setParam lines aside)."""
+    paper = (REPO / "edp" / "scenes" / "paper.idp").read_text()
+    scene = tmp_path / "scene.idp"
+    scene.write_text(paper)
+    folder = tmp_path / "run"
+    killed_driver(folder, 100, scene=scene)
+    scene.write_text(paper.replace("(-10*t)", "(-10*t + 0.01*(t - 4.5)*(t - 15))"))
+    done = run_script(MAIN, [*DRIVER, "-out", folder, "-restart", folder], defines={"SCENE": scene.name}, cwd=tmp_path)
+    assert done.returncode == 3 and "a scene file whose code" in done.error_line, done.error_line
+
+
 def test_another_expression_of_the_initial_data_is_refused_by_the_fingerprint(tmp_path):
     """Both runs give β⁰ by an expression (the same parameter value, 'expression:initialBonding'):
     the values at the segments tell them apart."""
@@ -256,19 +269,34 @@ def test_a_file_of_the_restart_folder_changed_since_its_checkpoint_is_refused(tm
     assert done.returncode == 3 and "files differ from those its checkpoint" in done.error_line, done.error_line
 
 
-def test_a_checkpoint_of_another_run_identity_is_refused(tmp_path):
+@pytest.mark.parametrize("made, given, words", [
+    (("-runIdentity", "a" * 64), ("-runIdentity", "b" * 64), "was made from other inputs (run identity aaaa"),
+    (("-solverIdentity", "a" * 64), ("-solverIdentity", "b" * 64), "was made by other code (solver identity aaaa"),
+    ((), ("-solverIdentity", "none"), "-restart needs the solver's identity"),
+])
+def test_a_checkpoint_of_another_identity_or_none_is_refused(tmp_path, made, given, words):
     folder = tmp_path / "run"
-    killed_driver(folder, 100, ("-runIdentity", "a" * 64))
-    done = restarted(folder, "-runIdentity", "b" * 64)
-    assert done.returncode == 3 and "by other code or from other inputs" in done.error_line, done.error_line
-    done = restarted(folder, "-runIdentity", "a" * 64)
+    killed_driver(folder, 100, made)
+    done = restarted(folder, *given)
+    assert done.returncode == 3 and words in done.error_line, done.error_line
+    done = restarted(folder, *made)
     assert done.returncode == 0, done.error_line
 
 
+def test_a_checkpoint_of_orchestrate_continues_by_hand_with_the_same_code(tmp_path):
+    """A run identity on one side only (orchestrate's digest, a hand run's none): the solver's and
+    the fingerprint decide."""
+    folder = tmp_path / "run"
+    killed_driver(folder, 100, ("-runIdentity", "c" * 64))
+    done = restarted(folder)
+    assert done.returncode == 0, done.error_line
+
+
+@pytest.mark.parametrize("name", ["runIdentity", "solverIdentity"])
 @pytest.mark.parametrize("value", ["abc", "A" * 64, "0" * 63 + "g", "../" + "0" * 61])
-def test_a_run_identity_that_is_no_sha256_is_refused(tmp_path, value):
-    done = run_script(MAIN, ["-N", "40", "-runIdentity", value, "-out", tmp_path / "run"])
-    assert done.returncode == 3 and "parameter runIdentity" in done.error_line, done.error_line
+def test_an_identity_that_is_no_sha256_is_refused(tmp_path, name, value):
+    done = run_script(MAIN, ["-N", "40", f"-{name}", value, "-out", tmp_path / "run"])
+    assert done.returncode == 3 and f"parameter {name}" in done.error_line, done.error_line
 
 
 def test_a_folder_without_a_whole_checkpoint_is_refused(tmp_path):
@@ -455,3 +483,14 @@ def test_a_checkpoint_before_any_output_reads_nothing_from_standard_input(tmp_pa
     finally:
         process.kill()
         process.stdin.close()
+
+
+def test_a_file_on_the_files_line_without_its_sha256_is_refused(tmp_path):
+    folder = tmp_path / "run"
+    killed_driver(folder, 300)
+    shutil.copy(folder / "state_0120.txt", folder / "state_0130.txt")
+    for checkpoint in folder.glob("checkpoint-?.txt"):
+        resealed(checkpoint, lambda lines: [line + " state_0130.txt" if line.startswith("files ") and line != "files end"
+                                            else line for line in lines])
+    done = restarted(folder, out=tmp_path / "o1")
+    assert done.returncode == 3 and "'state_0130.txt' it holds no SHA-256 of" in done.error_line, done.error_line

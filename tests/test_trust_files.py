@@ -175,7 +175,7 @@ def test_a_folder_that_differs_from_its_manifest_in_any_way_is_refused(two_runs,
 def sealed(lines: list[str], step: int, identity: str = "f" * 64) -> bytes:
     import hashlib
 
-    body = "".join(line + "\n" for line in [f"checkpoint {step}", f"run {identity}", *lines])
+    body = "".join(line + "\n" for line in [f"checkpoint {step}", f"solver {'e' * 64}", f"run {identity}", *lines])
     return (body + f"seal {hashlib.sha256(body.encode()).hexdigest()}\nend {step}\n").encode()
 
 
@@ -216,4 +216,12 @@ def test_a_manifest_whose_inputs_were_changed_is_refused(copy_of):
     manifest["inputs"]["digest"] = "deadbeef"
     (folder / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(IncompleteRun, match="its inputs are not those of inputs.json"):
+        load_result(folder)
+
+
+def test_a_run_of_orchestrate_without_its_manifest_is_not_taken_for_a_hand_run(copy_of, two_runs):
+    """Deleting manifest.json would otherwise leave only the hand-run check of run.json's files."""
+    folder = copy_of(0)
+    (folder / "manifest.json").unlink()
+    with pytest.raises(IncompleteRun, match="without its manifest.json"):
         load_result(folder)
