@@ -48,12 +48,24 @@ class IncompleteRun(RuntimeError):
 
 
 def read_json(path: Path) -> dict:
+    """A JSON object of a run's file; IncompleteRun for anything else (a reader never meets a
+    KeyError or an AttributeError of a file someone changed)."""
     try:
-        return json.loads(path.read_bytes())
+        data = json.loads(path.read_bytes())
     except FileNotFoundError:
         raise IncompleteRun(f"{path.parent}: no {path.name}") from None
     except (ValueError, UnicodeDecodeError) as error:
         raise IncompleteRun(f"{path}: not valid JSON ({error}); the file is cut short or damaged") from None
+    if not isinstance(data, dict):
+        raise IncompleteRun(f"{path}: not a run's file (a JSON object was expected)")
+    return data
+
+
+def steps_of(folder: Path) -> int:
+    steps = read_json(folder / "params_used.json").get("N")
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise IncompleteRun(f"{folder / 'params_used.json'}: no number of steps N")
+    return steps
 
 
 def facts(folder: Path) -> dict:
@@ -73,8 +85,7 @@ def check_files(folder: Path) -> dict:
     for name in files:
         if not isinstance(name, str) or not DRIVER_FILE.fullmatch(name) or not regular_file(folder / name):
             raise IncompleteRun(f"{folder}: the run lists {name!r}, which is not a file of the folder by a run's name")
-    params = read_json(folder / "params_used.json")
-    _check_history(folder / "history.csv", int(params["N"]))
+    _check_history(folder / "history.csv", steps_of(folder))
     for name in files:
         path = folder / name
         if name.endswith(".vtu"):
@@ -207,5 +218,5 @@ def verify_manifest(folder: Path) -> dict:
             or not listed - set(map(str, written)) <= {FACTS, *RUNNER_FILES}:
         raise IncompleteRun(f"{folder}: the manifest does not list the files run.json names, and those only "
                             "(with the runner's own)")
-    _check_history(folder / "history.csv", int(read_json(folder / "params_used.json")["N"]))
+    _check_history(folder / "history.csv", steps_of(folder))
     return manifest

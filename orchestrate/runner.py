@@ -232,7 +232,7 @@ def sealed_checkpoint(path: Path) -> tuple[int, str] | None:
     whole = (len(first) == 2 and first[0] == b"checkpoint" and lines[-2] == b"end " + first[1]
              and len(identity) == 2 and identity[0] == b"run"
              and lines[-3][len(b"seal "):].decode(errors="replace") == hashlib.sha256(body).hexdigest())
-    return (int(first[1]), identity[1].decode()) if whole and first[1].isdigit() else None
+    return (int(first[1]), identity[1].decode(errors="replace")) if whole and first[1].isdigit() else None
 
 
 def checkpoint_step(partial: Path) -> int:

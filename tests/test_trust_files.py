@@ -225,3 +225,18 @@ def test_a_run_of_orchestrate_without_its_manifest_is_not_taken_for_a_hand_run(c
     (folder / "manifest.json").unlink()
     with pytest.raises(IncompleteRun, match="without its manifest.json"):
         load_result(folder)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(["manifest.json", "run.json", "params_used.json", "inputs.json"]),
+       value=st.recursive(st.none() | st.booleans() | st.integers() | st.text(max_size=5),
+                          lambda children: st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=5), children,
+                                                                                            max_size=3), max_leaves=6))
+def test_a_run_s_json_file_replaced_by_any_json_is_refused_with_incomplete_run(two_runs, tmp_path, name, value):
+    """Never a KeyError or AttributeError from a reader (a sweep would stop with a traceback)."""
+    folder = tmp_path / f"case{abs(hash((name, repr(value))))}"
+    shutil.copytree(two_runs[0], folder)
+    (folder / name).write_text(json.dumps(value))
+    with pytest.raises(IncompleteRun):
+        load_result(folder)
+    shutil.rmtree(folder)
