@@ -239,9 +239,13 @@ def tree_depth(tree) -> int:
     return deepest
 
 
+def has_variable(tree) -> bool:
+    return isinstance(tree, Variable) or any(has_variable(child) for child in children(tree))
+
+
 def constant(tree) -> float | None:
     """The value of a tree without variables (nan where Python's math refuses it), else None."""
-    if isinstance(tree, Variable) or any(constant(child) is None for child in children(tree)):
+    if has_variable(tree):
         return None
     try:
         return evaluate(tree, 0.0, 0.0, 0.0)

@@ -33,11 +33,6 @@ DRIVER_FILE = re.compile(r"(history\.csv|params_used\.json|solution\.pvd|run\.js
 RUNNER_FILES = ("inputs.json", "scene.toml", "scene.idp", "run.log", "body1.msh", "body2.msh", "summary.json",
                 "steps.json")
 IMAGE = re.compile(r"[a-z0-9_-]{1,64}\.(png|pdf|svg)")  # render's, made anew from the data: outside the manifest
-SHA256 = re.compile(r"[0-9a-f]{64}")
-
-
-def is_run_file(name: str) -> bool:
-    return bool(DRIVER_FILE.fullmatch(name)) or name in RUNNER_FILES
 PARTS = ("body1", "body2", "contact")
 BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
 
@@ -183,6 +178,10 @@ def write_manifest(folder: Path, inputs: dict) -> None:
     partial.replace(Path(folder) / MANIFEST)
 
 
+def is_run_file(name: str) -> bool:
+    return bool(DRIVER_FILE.fullmatch(name)) or name in RUNNER_FILES
+
+
 def regular_file(path: Path) -> bool:
     return path.is_file() and not path.is_symlink()
 
@@ -193,7 +192,7 @@ def verify_manifest(folder: Path) -> dict:
     has its rows; raises IncompleteRun naming the first that is not so."""
     folder = Path(folder)
     manifest = read_json(folder / MANIFEST)
-    entries = manifest.get("files") if isinstance(manifest, dict) else None
+    entries = manifest.get("files")
     if not isinstance(entries, dict) or not isinstance(manifest.get("inputs"), dict):
         raise IncompleteRun(f"{folder / MANIFEST}: not a run's manifest (no inputs or no files)")
     listed = set(entries)
@@ -209,7 +208,7 @@ def verify_manifest(folder: Path) -> dict:
         if not is_run_file(name) or not regular_file(path):
             raise IncompleteRun(f"{folder}: the manifest lists {name!r}, which is not a run's file")
         if not (isinstance(entry, dict) and entry.get("bytes") == path.stat().st_size
-                and SHA256.fullmatch(str(entry.get("sha256"))) and digest(path) == entry["sha256"]):
+                and entry.get("sha256") == digest(path)):
             raise IncompleteRun(f"{path}: changed since the run finished (size or SHA-256 differ from the manifest)")
     if manifest["inputs"] != read_json(folder / "inputs.json"):  # what a sweep's completion key is read from
         raise IncompleteRun(f"{folder / MANIFEST}: its inputs are not those of inputs.json (the manifest was changed)")

@@ -99,14 +99,17 @@ def listed(names) -> str:
     return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
 
 
+def refuse_link(path: Path, option: str, advice: str) -> None:
+    if path.is_symlink():
+        raise OutputError(f"{option} {path} is a symbolic link: {advice} (nothing is written through a link)")
+
+
 def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out") -> None:
     """Raises unless `command` may write into `folder`: a new or empty folder, or with `force` one
     whose record is this command's and which holds nothing else."""
     if not os.path.lexists(folder):
         return
-    if folder.is_symlink():
-        raise OutputError(f"{option} {folder} is a symbolic link: give a folder's own path (nothing is written "
-                          "through a link)")
+    refuse_link(folder, option, "give a folder's own path")
     if not folder.is_dir():
         raise OutputError(f"{option} {folder} is a file, not a folder: choose another {option}")
     present = set(os.listdir(folder))
@@ -158,9 +161,7 @@ def refuse_file(path: Path, force: bool, mark: str, option: str = "--out") -> No
     `mark` (one this program wrote)."""
     if not os.path.lexists(path):
         return
-    if path.is_symlink():
-        raise OutputError(f"{option} {path} is a symbolic link: give another file name (nothing is written "
-                          "through a link)")
+    refuse_link(path, option, "give another file name")
     if not path.is_file():
         raise OutputError(f"{option} {path} exists and is not a file: choose another {option}")
     if not force:

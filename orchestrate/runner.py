@@ -197,8 +197,8 @@ RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images", "units")
 def inputs_of(scene: Scene) -> dict:
     """Everything a run's result depends on: the scene as validated (RESULT_FREE aside) and the
     FreeFEM scene written from it (so a change in how it is written counts), the solver's identity
-    (its sources, plugins and FreeFem++: orchestrate/identity.py) and what determines each body's mesh (committed file content, or .geo sources, the mesher,
-    numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
+    (its sources, plugins and FreeFem++: orchestrate/identity.py) and what determines each body's
+    mesh (committed file content, or .geo sources, the mesher, numbers and gmsh version). A run folder whose manifest holds the same digest is the same run."""
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
     for body in ("body1", "body2"):  # where a .geo lives changes no result: its text is in "meshes"; nor
@@ -235,27 +235,29 @@ def sealed_checkpoint(path: Path) -> tuple[int, str] | None:
     return (int(first[1]), identity[1].decode(errors="replace")) if whole and first[1].isdigit() else None
 
 
+def sealed_checkpoints(partial: Path) -> list[tuple[int, str]]:
+    """(step, run identity) of each whole checkpoint in a partial folder."""
+    return [found for name in CHECKPOINTS if (found := sealed_checkpoint(partial / name))]
+
+
 def checkpoint_step(partial: Path) -> int:
     """The step of the newest whole checkpoint in a partial folder (0: none)."""
-    return max([0] + [found[0] for name in CHECKPOINTS if (found := sealed_checkpoint(partial / name))])
-
-
-def checkpoint_identities(partial: Path) -> set[str]:
-    return {found[1] for name in CHECKPOINTS if (found := sealed_checkpoint(partial / name))}
+    return max([0] + [step for step, _ in sealed_checkpoints(partial)])
 
 
 def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
     """Is `<out>.partial` to be continued from its checkpoint? Yes when asked (resume) and it holds
     a checkpoint of a run of these inputs. A checkpoint is never discarded unasked: one of other
     inputs with resume, or any without resume, is refused unless force says to start over."""
-    step = checkpoint_step(partial)
-    if not step:
+    found = sealed_checkpoints(partial)
+    if not found:
         return False
+    step = max(step for step, _ in found)
     try:
         same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
     except (OSError, ValueError, KeyError):
         same = False
-    same = same and checkpoint_identities(partial) == {inputs["digest"]}
+    same = same and {identity for _, identity in found} == {inputs["digest"]}
     if force and not (resume and same):
         return False
     if not resume:

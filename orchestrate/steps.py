@@ -114,6 +114,11 @@ def time_error_model(scene, work: Path, mesh_cache: Path | None = None, trust_ge
             "pilots": pilots, "orderUsed": p, "firstPilot": last["N"], "finestPilotError": last["distance2"] / (2 ** p - 1)}
 
 
+def error_at(model: dict, steps: float) -> float:
+    """The time error the pilots' model gives at N = steps."""
+    return model["finestPilotError"] * (4 * model["firstPilot"] / steps) ** model["orderUsed"]
+
+
 def steps_for(model: dict, target: float) -> tuple[int, float]:
     """Step 3 of the rule: the N for a target time error, and the error estimated at that N."""
     finest, error, p = 4 * model["firstPilot"], model["finestPilotError"], model["orderUsed"]
@@ -121,7 +126,7 @@ def steps_for(model: dict, target: float) -> tuple[int, float]:
     if not needed < 2.0 ** 62:  # beyond every N: told by choose_steps, never rounded to a wrong integer
         return math.inf, 0.0
     chosen = max(model["firstPilot"], math.ceil(needed))
-    return chosen, error * (finest / chosen) ** p
+    return chosen, error_at(model, chosen)
 
 
 def choose_steps(scene, work: Path, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
@@ -130,7 +135,7 @@ def choose_steps(scene, work: Path, mesh_cache: Path | None = None, trust_geo: b
     chosen, estimated = steps_for(model, scene.time.targetError)
     most = int(PARAMETERS["N"].bounds["le"])
     if chosen > most:
-        reachable = model["finestPilotError"] * (4 * model["firstPilot"] / most) ** model["orderUsed"]
+        reachable = error_at(model, most)
         raise StepsError(f"time.targetError = {scene.time.targetError:g}: the pilots' error model (order "
                          f"{model['orderUsed']:.3g}, {model['finestPilotError']:.3g} at N = {4 * model['firstPilot']}) "
                          f"needs N = {chosen:,} steps, above the largest N, {most:,}: give time.targetError >= "
