@@ -32,6 +32,7 @@ DRIVER_FILE = re.compile(r"(history\.csv|params_used\.json|solution\.pvd|run\.js
                          r"|(body1|body2|contact)_[0-9]{4,}\.vtu|state_[0-9]{4,}\.txt)")
 RUNNER_FILES = ("inputs.json", "scene.toml", "scene.idp", "run.log", "body1.msh", "body2.msh", "summary.json",
                 "steps.json")
+HAND_RUN_FILE = re.compile(r"checkpoint-[ab]\.txt|checkpoint-[a-z]+\.tmp|body[12]-n[0-9]+\.msh|gmsh-body[12]\.log")
 IMAGE = re.compile(r"[a-z0-9_-]{1,64}\.(png|pdf|svg)")  # render's, made anew from the data: outside the manifest
 PARTS = ("body1", "body2", "contact")
 BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
@@ -80,6 +81,7 @@ def check_files(folder: Path) -> dict:
     for name in files:
         if not isinstance(name, str) or not DRIVER_FILE.fullmatch(name) or not regular_file(folder / name):
             raise IncompleteRun(f"{folder}: the run lists {name!r}, which is not a file of the folder by a run's name")
+    _check_digests(folder, files, run.get("fileDigests"))
     _check_history(folder / "history.csv", steps_of(folder))
     for name in files:
         path = folder / name
@@ -90,6 +92,17 @@ def check_files(folder: Path) -> dict:
         elif name.endswith(".pvd"):
             _check_pvd(path, files)
     return run
+
+
+def _check_digests(folder: Path, files: list, digests) -> None:
+    """Every file the run lists but run.json has the SHA-256 the driver wrote at its end: a file
+    copied in from another run (of the same mesh, so that it reads back whole) is refused."""
+    if not isinstance(digests, dict) or sorted(digests) != sorted(name for name in files if name != FACTS):
+        raise IncompleteRun(f"{folder}: run.json holds no SHA-256 of each file it lists (fileDigests): a run of an older "
+                            "driver, or changed since; run it again")
+    for name, expected in digests.items():
+        if digest(folder / name) != expected:
+            raise IncompleteRun(f"{folder / name}: changed since the run finished (its SHA-256 is not run.json's)")
 
 
 def _check_history(path: Path, steps: int) -> None:
@@ -180,6 +193,13 @@ def write_manifest(folder: Path, inputs: dict) -> None:
 
 def is_run_file(name: str) -> bool:
     return bool(DRIVER_FILE.fullmatch(name)) or name in RUNNER_FILES
+
+
+def is_run_entry(name: str) -> bool:
+    """A name a run folder may hold: its files, its manifest, its images, and what the driver
+    leaves in a folder it writes by hand (checkpoints, meshes it generated and gmsh's logs:
+    edp/lib/checkpoint.idp, runFileNames)."""
+    return is_run_file(name) or name == MANIFEST or bool(IMAGE.fullmatch(name) or HAND_RUN_FILE.fullmatch(name))
 
 
 def regular_file(path: Path) -> bool:

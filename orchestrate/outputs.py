@@ -91,7 +91,14 @@ def read_record(folder: Path) -> dict | None:
     fields = {"command": str, "files": list, "folders": list}
     if not isinstance(record, dict) or any(not isinstance(record.get(key), kind) for key, kind in fields.items()):
         return None
+    if not all(plain_name(name) for name in record["files"] + record["folders"]):
+        return None  # a name with a folder in it would become a path outside this one: not a record we wrote
     return record
+
+
+def plain_name(name) -> bool:
+    """A name of an entry of the folder itself: no separator, not . or .., no NUL."""
+    return isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name
 
 
 def listed(names) -> str:
@@ -136,6 +143,36 @@ def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out"
                           f"choose another {option}")
 
 
+def claim_growing_folder(folder: Path, command: str, files, folders, work_suffixes=(), option: str = "--out") -> Path:
+    """`folder` ready for `command` to add to, with no --force: a command that continues its own
+    folder (a sweep runs the rows it lacks). New, empty, or recorded as this command's and holding
+    only what its record lists (with the work folders beside its run folders, `work_suffixes`)
+    and images this package drew; recorded with the union of the old and new names before anything
+    is written."""
+    if os.path.lexists(folder):
+        refuse_link(folder, option, "give a folder's own path")
+        if not folder.is_dir():
+            raise OutputError(f"{option} {folder} is a file, not a folder: choose another {option}")
+    present = set(os.listdir(folder)) if folder.is_dir() else set()
+    old = read_record(folder) if present else {"command": command, "files": [], "folders": []}
+    if old is None or old["command"] != command:
+        whose = "no orchestrate command recorded writing" if old is None else f"`{command_line(old['command'])}` wrote"
+        raise OutputError(f"{option} {folder} exists and holds files {whose} ({listed(present)}): choose a new or empty "
+                          f"folder, or one an earlier `{command_line(command)}` wrote")
+    folders = sorted({*old["folders"], *folders})
+    own = {RECORD, *old["files"], *files, *folders, *(name + suffix for name in folders for suffix in work_suffixes)}
+    foreign = {name for name in present - own
+               if not (name.endswith(tuple(SIGNATURES)) and holds_mark(folder / name, MARK))}
+    if foreign:
+        raise OutputError(f"{option} {folder} also holds {listed(foreign)}, which `{command_line(command)}` did not "
+                          f"write: move those away or choose another {option}")
+    folder.mkdir(parents=True, exist_ok=True)
+    record = {"command": command, "files": sorted({*old["files"], *files}), "folders": folders,
+              "note": "the files and run folders this command wrote here, which a later one continues"}
+    write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+    return folder
+
+
 def claim_folder(folder: Path, command: str, files, force: bool, folders=(), option: str = "--out") -> Path:
     """`folder` ready for `command` to write `files` in (and runs in `folders`): checked as by
     refuse_folder, made if new, emptied of the files its record lists, and recorded as this
@@ -143,7 +180,10 @@ def claim_folder(folder: Path, command: str, files, force: bool, folders=(), opt
     refuse_folder(folder, command, force, option)
     folder.mkdir(parents=True, exist_ok=True)
     old = read_record(folder) or {"files": [], "folders": []}
+    present = set(os.listdir(folder))
     for name in old["files"] + old["folders"]:
+        if name not in present:
+            continue
         path = folder / name
         if path.is_symlink() or (name in old["files"] and path.is_file()):
             path.unlink()
@@ -172,6 +212,12 @@ def refuse_file(path: Path, force: bool, mark: str, option: str = "--out") -> No
                           f"--force replaces only the program's own files; choose another {option}")
 
 
+# How each kind of file this package writes begins: a file named so that does not begin so is no
+# image of ours, whatever words it holds; a page (.md) holds its mark in its opening lines.
+SIGNATURES = {".png": b"\x89PNG\r\n\x1a\n", ".pdf": b"%PDF-", ".svg": b"<?xml"}
+OPENING = 4096  # bytes of a page that hold its mark
+
+
 def holds_mark(path: Path, mark: str) -> bool:
     try:
         descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
@@ -180,4 +226,8 @@ def holds_mark(path: Path, mark: str) -> bool:
     with os.fdopen(descriptor, "rb") as handle:
         if os.fstat(handle.fileno()).st_size > LARGEST_OWN_FILE:
             return False
-        return mark.encode() in handle.read()
+        data = handle.read()
+    signature = SIGNATURES.get(path.suffix.lower())
+    if signature is None:
+        return mark.encode() in data[:OPENING]
+    return data.startswith(signature) and mark.encode() in data

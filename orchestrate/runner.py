@@ -40,7 +40,7 @@ import numpy as np
 from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
 from orchestrate.identity import solver_identity
-from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, write_manifest
+from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, is_run_entry, write_manifest
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
@@ -144,6 +144,10 @@ def refuse_existing(out: Path, force: bool) -> None:
     if not is_run_folder(out):
         raise RunError(f"{out} exists and is not a run folder (no manifest.json, run.json or summary.json): --force replaces only "
                        "the folders of runs; choose another --out")
+    foreign = [name for name in os.listdir(out) if not is_run_entry(name)]
+    if foreign:
+        raise RunError(f"{out} holds a run and also {', '.join(sorted(foreign)[:5])}{' …' if len(foreign) > 5 else ''}, "
+                       "which no run writes: --force replaces only a run's own files; move those away or choose another --out")
 
 
 def refuse_foreign(folder: Path) -> None:
@@ -606,12 +610,24 @@ def differences(summary: dict, expected: dict) -> list[str]:
             or abs(found[name] - value) > REPRODUCED["rtol"] * abs(value) + REPRODUCED["atol"]]
 
 
-def check_against(result: Result, expected: str) -> int:
+def expected_summary(expected: str) -> tuple[Path, dict]:
+    """The summary.json --check-against names, read and checked before the run: a JSON object
+    whose "final" holds the figures."""
     path = Path(expected)
     path = path / "summary.json" if path.is_dir() else path
     if not path.is_file():
-        raise FileNotFoundError(f"--check-against {expected}: no summary.json there")
-    differing = differences(json.loads((result.folder / "summary.json").read_text()), json.loads(path.read_text()))
+        raise InputError(f"--check-against {expected}: no summary.json there")
+    try:
+        summary = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as error:
+        raise InputError(f"--check-against {path}: not JSON ({error})") from None
+    if not isinstance(summary, dict) or not isinstance(summary.get("final"), dict):
+        raise InputError(f"--check-against {path}: not a run's summary.json (no \"final\" figures)")
+    return path, summary
+
+
+def check_against(result: Result, path: Path, expected: dict) -> int:
+    differing = differences(json.loads((result.folder / "summary.json").read_text()), expected)
     for line in differing:
         print(f"differs from {path}: {line}")
     if not differing:
@@ -628,6 +644,7 @@ def command(options) -> int:
     overrides = parse_assignments(options.set, "--set")
     if options.allow_unstable:
         overrides["solver.allowUnstable"] = True
+    expected = expected_summary(options.check_against) if options.check_against else None
     result = run(options.scene, options.out, overrides, force=options.force, resume=options.resume,
                  progress=sys.stderr.isatty(), trust_geo=options.trust_geo)
     final = result.history
@@ -635,4 +652,4 @@ def command(options) -> int:
           f"contact length {final['contactLength'][-1]:.4g}, contact iterations/step {final['contactIters'].mean():.1f}")
     for warning in json.loads((result.folder / "summary.json").read_text())["warnings"]:
         print(f"warning: {warning}")
-    return check_against(result, options.check_against) if options.check_against else 0
+    return check_against(result, *expected) if expected else 0

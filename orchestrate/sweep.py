@@ -315,9 +315,12 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
     from orchestrate.progress import wanted
 
     shown = wanted(progress)
+    from orchestrate.outputs import claim_growing_folder
+    from orchestrate.runner import SUFFIXES
+
     out = Path(out).resolve()
     rows, jobs = plan(scene, grid, out, base, yes)
-    out.mkdir(parents=True, exist_ok=True)
+    claim_growing_folder(out, "sweep", ["sweep.csv"], [row["folder"] for row in rows], SUFFIXES)
     try:
         run_jobs(jobs, workers, scheduler, shown, trust_geo)
     finally:

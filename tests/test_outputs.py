@@ -131,3 +131,60 @@ def test_the_gallery_refuses_an_existing_run_folder_unless_forced_before_any_run
     code, err = cli("gallery", "paper", "peel", "--out", tmp_path)
     assert code == 1 and f"{tmp_path / 'peel'} exists: choose another --out or pass --force" in err
     assert not (tmp_path / "paper").exists()  # refused before the first scene ran
+
+
+# --- a second round as an attacker (issue 32): names read from a record never become paths -------
+
+@pytest.mark.parametrize("name", ["../victim.txt", "/ABSOLUTE", "sub/../../victim.txt", "..", ""])
+def test_a_record_naming_a_path_outside_its_folder_is_no_record_and_deletes_nothing(tmp_path, name):
+    """Was: --force unlinked every name of made-by.json, `../victim.txt` and absolute paths too."""
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the user's")
+    out = tmp_path / "cmp"
+    claim_folder(out, "compare", ["report.txt"], force=False)
+    record = json.loads((out / RECORD).read_text())
+    record["files"].append(name.replace("/ABSOLUTE", str(victim)))
+    (out / RECORD).write_text(json.dumps(record))
+    with pytest.raises(OutputError, match="holds files no orchestrate command recorded writing"):
+        claim_folder(out, "compare", ["report.txt"], force=True)
+    assert victim.read_text() == "the user's"
+
+
+def test_a_file_named_as_an_image_is_replaced_only_when_it_is_one_of_ours(tmp_path):
+    """Was: any file holding the words of the mark was taken for an image the package drew."""
+    notes = tmp_path / "notes.png"
+    notes.write_text("notes: written by python -m orchestrate\n")
+    with pytest.raises(OutputError, match="was not written by this program"):
+        refuse_file(notes, force=True, mark="written by python -m orchestrate")
+
+
+def test_a_sweep_takes_only_a_new_folder_or_its_own(tmp_path):
+    """Was: `sweep --out` an existing folder wrote over the user's sweep.csv without a word."""
+    from orchestrate.outputs import claim_growing_folder
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "sweep.csv").write_text("my table")
+    with pytest.raises(OutputError, match="holds files no orchestrate command recorded writing"):
+        claim_growing_folder(mine, "sweep", ["sweep.csv"], ["a-1"], (".partial",))
+    assert (mine / "sweep.csv").read_text() == "my table"
+    ours = tmp_path / "ours"
+    claim_growing_folder(ours, "sweep", ["sweep.csv"], ["a-1"], (".partial",))
+    (ours / "a-1").mkdir()
+    (ours / "a-2.partial").mkdir()
+    claim_growing_folder(ours, "sweep", ["sweep.csv"], ["a-2"], (".partial",))  # a later sweep adds its rows
+    assert json.loads((ours / RECORD).read_text())["folders"] == ["a-1", "a-2"]
+    (ours / "thesis.tex").write_text("the user's")
+    with pytest.raises(OutputError, match="also holds thesis.tex"):
+        claim_growing_folder(ours, "sweep", ["sweep.csv"], ["a-3"], (".partial",))
+
+
+def test_run_force_replaces_a_run_folder_only_when_it_holds_nothing_else(tmp_path, cli):
+    """Was: a folder holding a run.json (or summary.json) was deleted whole, the user's files in it too."""
+    folder = tmp_path / "project"
+    folder.mkdir()
+    (folder / "run.json").write_text('{"mine": 1}')
+    (folder / "thesis.tex").write_text("the user's")
+    code, err = cli("run", PAPER, "--out", folder, "--force")
+    assert code == 1 and "also thesis.tex, which no run writes" in err, err
+    assert sorted(os.listdir(folder)) == ["run.json", "thesis.tex"]

@@ -13,7 +13,7 @@ import pytest
 
 from orchestrate import Scene
 from orchestrate import mesh as meshing
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, run_script
 from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import MeshError, MeshLimits, body_mesh
 from orchestrate.runner import run
@@ -279,7 +279,9 @@ def test_a_rerun_never_writes_into_its_run_folder_unless_told_and_a_cut_scene_pa
     (tmp_path / "a").write_text((original / "scene.idp").read_text())  # what FreeFEM's macro reader would take
     done = subprocess.run([ff, str(REPO / "edp" / "main.edp"), "-DSCENE=a#b/scene.idp", "-out", "x"], cwd=tmp_path,
                           capture_output=True, text=True)
-    assert done.returncode == 3 and "-DSCENE='a#b/scene.idp' reached FreeFEM as 'a'" in done.stdout + done.stderr
+    assert done.returncode == 3 and "the -DSCENE path 'a#b/scene.idp' holds a '#'" in done.stderr  # bin/ff's check
+    done = run_script(REPO / "edp" / "main.edp", ["-out", "x"], defines={"SCENE": "a#b/scene.idp"}, cwd=tmp_path)
+    assert done.returncode == 3 and "-DSCENE='a#b/scene.idp' reached FreeFEM as 'a'" in done.error_line  # the driver's
     assert not (tmp_path / "x").exists()
 
 

@@ -3,20 +3,25 @@ the solver's identity is derived from its sources, so no change of code is a "sa
 folder is read only through a manifest that names exactly its files; a checkpoint is taken only
 when its seal matches, and only by a run of its identity."""
 import json
+import os
 import shutil
+import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from orchestrate import load_result, run
-from orchestrate.freefem import REPO
+from orchestrate.cli import main
+from orchestrate.freefem import MAIN, REPO, run_script
 from orchestrate.identity import program_files, solver_identity
 from orchestrate.manifest import IncompleteRun
 from orchestrate.results import Result
 from orchestrate.runner import RunError, checkpoint_step, inputs_of, sealed_checkpoint
 from orchestrate.scene import Scene
+
 
 PAPER = REPO / "scenes" / "paper.toml"
 STATES = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False,
@@ -142,11 +147,12 @@ def test_a_manifest_without_a_file_run_json_names_is_refused(copy_of):
 def test_a_folder_that_differs_from_its_manifest_in_any_way_is_refused(two_runs, tmp_path, edit, pick, name):
     """Entries removed, added, renamed or with other numbers, a file a link, a folder inside:
     each is refused, never loaded as the run."""
-    folder = tmp_path / f"case{pick}"
+    folder = Path(tempfile.mkdtemp(dir=tmp_path)) / "run"  # a new folder each example, failed or not
     shutil.copytree(two_runs[0], folder)
     manifest = json.loads((folder / "manifest.json").read_text())
     entries = manifest["files"]
     chosen = sorted(entries)[pick % len(entries)]
+    assume(not (edit in ("add", "rename") and name == chosen))  # the entry as it was: no edit at all
     if edit == "drop":
         entries.pop(chosen)
     elif edit == "add":
@@ -167,7 +173,7 @@ def test_a_folder_that_differs_from_its_manifest_in_any_way_is_refused(two_runs,
     (folder / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(IncompleteRun):
         load_result(folder)
-    shutil.rmtree(folder)
+    shutil.rmtree(folder.parent)
 
 
 # --- checkpoints as the runner reads them ---------------------------------------------------------
@@ -234,9 +240,67 @@ def test_a_run_of_orchestrate_without_its_manifest_is_not_taken_for_a_hand_run(c
                                                                                             max_size=3), max_leaves=6))
 def test_a_run_s_json_file_replaced_by_any_json_is_refused_with_incomplete_run(two_runs, tmp_path, name, value):
     """Never a KeyError or AttributeError from a reader (a sweep would stop with a traceback)."""
-    folder = tmp_path / f"case{abs(hash((name, repr(value))))}"
+    folder = Path(tempfile.mkdtemp(dir=tmp_path)) / "run"
     shutil.copytree(two_runs[0], folder)
     (folder / name).write_text(json.dumps(value))
     with pytest.raises(IncompleteRun):
         load_result(folder)
-    shutil.rmtree(folder)
+    shutil.rmtree(folder.parent)
+
+
+# --- a second round as an attacker: the driver writes no file through a planted link ------------
+
+DRIVER_RUN = ["-n1", "6", "-n2", "8", "-N", "20", "-outTimes", "0.5,1"]
+
+
+def test_a_fresh_run_writes_nothing_through_links_planted_by_its_files_names(tmp_path):
+    """Was: a driver run into a folder whose history.csv was a symbolic link, and whose run.json a
+    hard link, to a user's files wrote the run into them. Now every entry named as a run's file is
+    removed before the run writes (a link removed, never followed): the user's files are as they
+    were, the run's own files are whole, and an earlier run's files are gone."""
+    out = tmp_path / "out"
+    out.mkdir()
+    linked, hard = tmp_path / "linked.txt", tmp_path / "hard.txt"
+    linked.write_text("the user's\n")
+    hard.write_text("the user's too\n")
+    (out / "history.csv").symlink_to(linked)
+    os.link(hard, out / "run.json")
+    (out / "state_0600.txt").write_text("another run's\n")
+    (out / "notes.txt").write_text("not a run's name: kept\n")
+    done = run_script(MAIN, [*DRIVER_RUN, "-out", out])
+    assert done.returncode == 0, done.error_line
+    assert linked.read_text() == "the user's\n" and hard.read_text() == "the user's too\n"
+    assert not (out / "history.csv").is_symlink() and not (out / "state_0600.txt").exists()
+    assert (out / "notes.txt").read_text() == "not a run's name: kept\n"
+    assert len(load_result(out).history["t"]) == 20
+
+
+def test_a_file_of_another_run_copied_into_a_hand_run_folder_is_refused(tmp_path):
+    """Was: a hand run's folder has no manifest, and a state file copied from another run of the
+    same meshes read back whole: compare reported its numbers. run.json now holds each file's
+    SHA-256."""
+    for name, extra in (("a", []), ("b", ["-gammaNu", "0.5"])):
+        assert run_script(MAIN, [*DRIVER_RUN, *extra, "-out", tmp_path / name]).returncode == 0
+    load_result(tmp_path / "a")
+    shutil.copy(tmp_path / "b" / "state_0010.txt", tmp_path / "a" / "state_0010.txt")
+    with pytest.raises(IncompleteRun, match="state_0010.txt: changed since the run finished"):
+        load_result(tmp_path / "a")
+
+
+def test_a_scene_path_the_macro_reader_would_cut_is_refused_by_bin_ff_with_a_message(tmp_path):
+    """Was: `Error opening file .../x in:` from FreeFEM, with no word of the '#' that cut the path."""
+    folder = tmp_path / "x#y"
+    folder.mkdir()
+    shutil.copy(REPO / "edp" / "scenes" / "paper.idp", folder / "scene.idp")
+    done = subprocess.run([REPO / "bin" / "ff", REPO / "edp" / "main.edp", f"-DSCENE={folder}/scene.idp", "-out",
+                           tmp_path / "o"], capture_output=True, text=True)
+    assert done.returncode == 3 and "holds a '#'" in done.stderr and not (tmp_path / "o").exists(), done.stderr
+
+
+@pytest.mark.parametrize("content", ["not json", "[1, 2]", '{"final": 3}'])
+def test_check_against_a_file_that_is_no_summary_is_refused_before_the_run(tmp_path, content):
+    """Was: a KeyError or TypeError traceback, after the whole run."""
+    expected = tmp_path / "expected.json"
+    expected.write_text(content)
+    assert main(["run", str(PAPER), "--out", str(tmp_path / "run"), "--check-against", str(expected)]) == 2
+    assert not (tmp_path / "run").exists()
