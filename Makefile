@@ -11,7 +11,7 @@ PYTHON := $(VENV)/bin/python
 APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev libsuitesparse-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup system-packages plugins paper test gallery
+.PHONY: setup system-packages plugins paper test test-fast gallery
 
 setup: system-packages $(VENV)/.installed plugins
 
@@ -49,5 +49,10 @@ paper: setup
 gallery: setup
 	$(PYTHON) -m orchestrate gallery --force
 
+# The whole suite on both cores (pytest-xdist; each test in one tier: unit, solver, physics, runs,
+# pyproject.toml), and the tests that start no FreeFem++ and no gmsh, for a Python-only change.
 test: setup
-	$(PYTHON) -m pytest -q tests
+	$(PYTHON) -m pytest -q -n 2 tests
+
+test-fast: setup
+	$(PYTHON) -m pytest -q -m unit tests

@@ -280,12 +280,12 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
     rows, space = [], []
     for l in range(levels):
         target = FIRST_TARGET if l == 0 else fraction * space[-1] / 4
-        for scheme in ("bdf2", *(s for s in SCHEMES if s != "bdf2")):
-            if scheme != "bdf2":
+        for scheme in sorted(SCHEMES, key=lambda s: -ORDER[s]):  # the second order first: it sets the space error
+            if ORDER[scheme] == 1:
                 target = fraction * space[-1]
             row = measured_run(family, scheme, level_n1(l), l, target, models[scheme], reference,
                                scratch / f"{scheme}-{family}" / f"level{l}", scratch)
-            if scheme == "bdf2":
+            if ORDER[scheme] == 2:
                 space.append(row["errorToReference"])
             rows.append(row)
     return rows

@@ -3,7 +3,7 @@
 Derived, never listed by hand: from edp/main.edp, every file it includes (`include "…"`, followed
 through the files it includes), every plugin it loads (`load "…"`: the project's source and built
 .so, or FreeFEM's own .so), the files beside the included ones that are not scripts (the data a
-library reads at run time, as lib/parameters.md), and the FreeFem++ executable. A new .idp or
+library may read at run time), and the FreeFem++ executable. A new .idp or
 plugin enters it with no edit here. Part of a run's identity (runner.inputs_of); bin/ff passes it
 to the driver for runs started by hand, so a checkpoint never continues under other code.
 
@@ -22,6 +22,10 @@ from pathlib import Path
 
 EDP = Path(__file__).resolve().parent.parent / "edp"
 FREEFEM_PLUGINS = Path("/usr/lib/freefem++")  # where Debian's FreeFem++ keeps its own plugins
+# Beside the included files but never read by the driver: other scripts, and lib/parameters.toml,
+# the source the generated includes are made from (its meanings are prose: rewording one is no
+# other program).
+NOT_READ = (".edp", ".toml")
 # A directive at the start of a line (comments and strings elsewhere hold the words too).
 DIRECTIVE = re.compile(rb'^[ \t]*(include|load)[ \t]+"([^"\n]+)"', re.MULTILINE)
 
@@ -46,7 +50,7 @@ def program_files(main: Path) -> list[Path]:
                 found.add(path)
                 pending.append(path)
     data = {path for folder in {path.parent for path in found} for path in folder.iterdir()  # not an editor's .swp
-            if path.is_file() and path.suffix != ".edp" and not path.name.startswith(".")}
+            if path.is_file() and path.suffix not in NOT_READ and not path.name.startswith(".")}
     return sorted(found | data) + [file for name in sorted(plugins) for file in plugin_files(main.parent, name)]
 
 

@@ -81,7 +81,7 @@ def initial_value(name: str):
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]  # a number, never a boolean or a text
 MESHES = REPO / "meshes"
 IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
-LABEL = PARAMETERS["contactLabel"].bounds  # the range of a boundary label (parameters.md)
+LABEL = PARAMETERS["contactLabel"].bounds  # the range of a boundary label (parameters.toml)
 
 
 def _contact_labels(value):

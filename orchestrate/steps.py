@@ -18,9 +18,9 @@ import math
 import shutil
 from pathlib import Path
 
-from orchestrate.parameters import PARAMETERS
+from orchestrate.parameters import PARAMETERS, SCHEMES
 
-ORDER = {"euler": 1, "semi-implicit": 1, "bdf2": 2}
+ORDER = {name: scheme["order"] for name, scheme in SCHEMES.items()}  # in k (edp/lib/parameters.toml)
 FIRST_PILOT, MOST_DOUBLINGS = 10, 10
 STEP_FAILURES = (3, 4, 5)  # exits a smaller step can cure: a bound refused, a loop or an invariant broke
 ASYMPTOTIC = (0.8, 1.3)  # observed order / the scheme's, for pilots in their asymptotic range

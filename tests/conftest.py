@@ -64,3 +64,12 @@ def resealed(checkpoint: Path, change) -> None:
     step = lines[0].split()[1]
     checkpoint.write_text(body + f"seal {hashlib.sha256(body.encode()).hexdigest()}\nend {step}\n")
 
+
+TIERS = ("unit", "solver", "physics", "runs")  # pyproject.toml's markers: what each test guards
+
+
+def pytest_collection_modifyitems(items):
+    """A test outside every tier would run in no `make` target but the whole suite: refused."""
+    untiered = [item.nodeid for item in items if not any(item.get_closest_marker(tier) for tier in TIERS)]
+    if untiered:
+        raise pytest.UsageError(f"tests in no tier ({', '.join(TIERS)}): {', '.join(untiered[:5])}")

@@ -8,6 +8,8 @@ import pytest
 
 from orchestrate.bench import CHECK, N1_STEP, REFERENCE, SCHEMES, SEARCH_RUNS, bench, predicted_n1, wall_at
 
+pytestmark = pytest.mark.physics
+
 # Between the errors of levels 0 and 1 (h1 = 6/6, 6/12) of both families: against this run's
 # reference they measured 13.2–13.3 % and 7.0–7.2 % (uniform), 8.9–9.1 % and 4.2–4.3 % (graded).
 TARGET = 0.08
@@ -73,6 +75,7 @@ def test_the_search_finds_the_coarsest_mesh_that_reaches_the_target(quick):
     assert bracketed == {"uniform", "graded"}
 
 
+@pytest.mark.unit
 def test_predicted_n1_follows_a_power_law():
     # error = 3·n1^-0.8 is a straight line in log–log: the prediction is exact, then rounded up to the step
     runs = [{"n1": n1, "errorToReference": 3 * n1 ** -0.8} for n1 in (6, 12)]
@@ -91,6 +94,7 @@ def test_the_steps_balance_time_against_space_error(quick):
             assert len(errors) == 3 and max(errors) / min(errors) < 1.25 / 0.75, (family, level, errors)
 
 
+@pytest.mark.unit
 def test_wall_at_reads_a_curve_in_log_log():
     # wall = error^-2 is a straight line in log–log: the interpolation is exact inside, None outside
     points = [(e, e ** -2) for e in (0.025, 0.05, 0.1)]

@@ -16,6 +16,8 @@ import pytest
 from conftest import SCENES, gmsh_mesh, solve_ok
 from orchestrate.results import cell_field
 
+pytestmark = pytest.mark.solver
+
 T, N = 1.0, 25
 PUSH_RATE = 0.05                 # top of body 1 displaced by −PUSH_RATE·t (tests/scenes/blocks.idp)
 HEIGHT, WIDTH = (1.0, 1.0), 2.0  # body 1, body 2
@@ -219,6 +221,7 @@ def test_compare_writes_a_new_folder_and_replaces_only_its_own_files_never_throu
     assert (mine / "report.txt").read_text() == "the user's"
 
 
+@pytest.mark.unit
 def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(tmp_path):
     """T = 1e-9 with N = 4 and N = 2: each state of the coarser run is paired with the state at its
     own instant, never with a neighbour that lies within an absolute tolerance."""

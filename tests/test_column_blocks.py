@@ -22,6 +22,8 @@ from orchestrate.freefem import MAIN, REPO, run_script  # noqa: E402
 from orchestrate.results import STATE_ARRAYS, read_state  # noqa: E402
 from orchestrate.runner import run  # noqa: E402
 
+pytestmark = pytest.mark.solver
+
 # A P1 field w is reproduced exactly by solving A x = A w: the columns of B are A w_j for
 # fields w_j of different shapes, so blockSolve(A, B) must give the w_j to round-off.
 BLOCK_CHECK = textwrap.dedent("""
@@ -146,6 +148,7 @@ def plugin_copy(parent: Path) -> Path:
     return copy
 
 
+@pytest.mark.unit
 def test_a_missing_plugin_is_named_before_freefem_starts(tmp_path, monkeypatch):
     from orchestrate import freefem
     copy = plugin_copy(tmp_path)

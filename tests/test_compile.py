@@ -7,6 +7,8 @@ import pytest
 
 from orchestrate.freefem import MAIN, REPO, run_script
 
+pytestmark = pytest.mark.solver
+
 SCENES = sorted((REPO / "edp" / "scenes").glob("*.idp")) + sorted((REPO / "tests" / "scenes").glob("*.idp"))
 SCRIPTS = sorted((REPO / "edp").rglob("*.edp")) + sorted((REPO / "tests").rglob("*.edp"))
 
@@ -37,6 +39,7 @@ def test_libraries_do_nothing_when_included(tmp_path):
     assert {name.split('"')[0] for name in included} == {path.name for path in (REPO / "edp" / "lib").glob("*.idp")}
 
 
+@pytest.mark.unit
 def test_the_driver_declares_no_state_and_its_loop_is_the_scheme():
     """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is docs/model.md §6's steps."""
     text = (REPO / "edp" / "main.edp").read_text()

@@ -5,7 +5,11 @@ of its own: with λ_D = λ_u = 0 the source is M(inertia + λ_w), whose sum over
 (inertia + λ_w) times the area when the inertia is constant."""
 import textwrap
 
+import pytest
+
 from orchestrate.freefem import REPO, run_script
+
+pytestmark = pytest.mark.solver
 
 CHECK = textwrap.dedent("""
     load "damagesource"

@@ -14,6 +14,7 @@ from orchestrate import expr
 from orchestrate.expr import Binary, Call, ExpressionError, Number, Unary, Variable
 from orchestrate.freefem import run_script
 
+
 SAFE_FUNCTIONS = ("sin", "cos", "atan", "tanh", "abs", "floor", "ceil", "min", "max", "exp")
 
 
@@ -45,6 +46,7 @@ def trees(functions=tuple(expr.FUNCTIONS)):
     return st.recursive(leaves, extend, max_leaves=12)
 
 
+@pytest.mark.unit
 @given(trees())
 def test_printed_trees_parse_back_to_themselves(tree):
     """Or are refused for a constant part that is not a finite number (a divisor 0 among them)."""
@@ -66,6 +68,7 @@ ALLOWED_CODE = re.compile(r"[\sA-Za-z0-9_.()+\-*/^<>=!,?:]*")
 ALLOWED_NAMES = set(expr.VARIABLES) | set(expr.FUNCTIONS) | {"e"}
 
 
+@pytest.mark.unit
 @given(st.text(max_size=60))
 def test_any_text_is_refused_or_becomes_whitelisted_code(text):
     try:
@@ -76,6 +79,7 @@ def test_any_text_is_refused_or_becomes_whitelisted_code(text):
     assert set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", re.sub(r"\d+\.?\d*e[+-]?\d+", "", code))) <= ALLOWED_NAMES
 
 
+@pytest.mark.unit
 @given(st.text(alphabet="xyt0123456789.+-*/^()<>=!, sincoexpabmd", max_size=40))
 def test_near_miss_text_is_refused_or_becomes_whitelisted_code(text):
     test_any_text_is_refused_or_becomes_whitelisted_code.hypothesis.inner_test(text)
@@ -105,6 +109,7 @@ def divides_by_zero(tree, point) -> bool:
 POINTS = [(0.3, -1.7, 0.25), (2.0, 0.5, 1.0), (-1.25, 3.0, 0.0)]
 
 
+@pytest.mark.solver
 @settings(max_examples=6, deadline=None)
 @given(st.lists(trees(SAFE_FUNCTIONS), min_size=12, max_size=12))
 def test_freefem_computes_what_the_tree_means(tmp_path_factory, batch):
@@ -140,6 +145,7 @@ def subtrees(tree):
     ("-x^2", "(-(x ^ (2.0)))"),
     ("2^3^2", "((2.0) ^ ((3.0) ^ (2.0)))"),
 ])
+@pytest.mark.unit
 def test_precedence_and_real_literals(text, code):
     assert expr.freefem(text) == code
 
@@ -154,6 +160,7 @@ INJECTIONS = [
 ]
 
 
+@pytest.mark.unit
 @pytest.mark.parametrize("text", INJECTIONS)
 def test_injection_attempts_are_refused(text):
     if text == "\u0078":  # the escape is just "x": allowed, and harmless
@@ -163,6 +170,7 @@ def test_injection_attempts_are_refused(text):
         expr.freefem(text)
 
 
+@pytest.mark.unit
 def test_error_names_the_position_and_the_allowed_tokens():
     with pytest.raises(ExpressionError) as error:
         expr.freefem("10*t + exec(1)")
@@ -170,6 +178,7 @@ def test_error_names_the_position_and_the_allowed_tokens():
     assert "'exec' is not allowed" in message and "position 7" in message and "sqrt" in message
 
 
+@pytest.mark.unit
 @pytest.mark.parametrize("text", ["0/0", "x/0", "1/0*t", "x/(1-1)", "t/(2-2)"])
 def test_a_division_by_a_zero_constant_is_refused_where_it_is(text):
     """FreeFEM stops on a real division by 0 ("Div by 0", exit 8) or crashes inside an
@@ -180,11 +189,13 @@ def test_a_division_by_a_zero_constant_is_refused_where_it_is(text):
 
 @pytest.mark.parametrize("text, part", [("1e308*10", "((1e+308) * (10.0))"), ("log(0)", "log((0.0))"),
                                         ("sqrt(-1) + x", "sqrt((-(1.0)))"), ("2^2000*t", "((2.0) ^ (2000.0))")])
+@pytest.mark.unit
 def test_a_constant_part_that_is_not_a_finite_number_is_refused_naming_it(text, part):
     with pytest.raises(ExpressionError, match=re.escape(f"{part}, is not a finite number")):
         expr.parse(text)
 
 
+@pytest.mark.unit
 @given(tree=trees())
 def test_a_tree_accepted_has_only_finite_constant_parts(tree):
     try:

@@ -20,6 +20,8 @@ from orchestrate.results import STATE_ARRAYS, read_state  # noqa: E402
 from orchestrate.runner import SolverError, run  # noqa: E402
 from orchestrate.scene import Scene, SceneError  # noqa: E402
 
+pytestmark = pytest.mark.solver
+
 # The P1 elasticity matrix of a square clamped on its left side; Cᵀ: the y-dofs of the bottom
 # side's nodes, with weights. Everything the factor gives is checked against solves with K.
 FACTOR_CHECK = textwrap.dedent("""

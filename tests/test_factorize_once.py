@@ -4,6 +4,8 @@ import pytest
 
 from conftest import solve
 
+pytestmark = pytest.mark.solver
+
 NO_DAMAGE = ["-lambdaD1", 0, "-lambdaU1", 0, "-lambdaD2", 0, "-lambdaU2", 0]
 
 

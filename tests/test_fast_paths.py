@@ -7,6 +7,8 @@ import pytest
 
 from conftest import SCENES, solve_ok
 
+pytestmark = pytest.mark.solver
+
 SAME = ("normV", "vmMax1", "vmMax2", "zetaMin1", "zetaMin2", "betaMin", "betaMean", "contactLength",
         "contactForce", "forceX1", "forceY1")
 

@@ -14,6 +14,8 @@ import pytest
 from orchestrate.results import read_state
 from orchestrate.runner import SolverError, run
 
+pytestmark = pytest.mark.solver
+
 Q, E1, E2, NU = 2.0, 1000.0, 400.0, 0.3
 
 

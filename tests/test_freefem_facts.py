@@ -3,7 +3,11 @@ import os
 import subprocess
 import textwrap
 
+import pytest
+
 from orchestrate.freefem import REPO, freefem_command, freefem_env, run_script
+
+pytestmark = pytest.mark.solver
 
 # A P1 vector field is reproduced exactly by solving A x = A w, whatever A's (SPD) form.
 SOLVE_CHECK = textwrap.dedent("""

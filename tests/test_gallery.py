@@ -15,6 +15,8 @@ from orchestrate.freefem import REPO
 from orchestrate.results import Result, cell_field, load_result
 from orchestrate.runner import run
 
+pytestmark = pytest.mark.physics
+
 SCENES = REPO / "scenes"
 
 

@@ -13,6 +13,8 @@ from orchestrate.results import read_state
 from orchestrate.runner import SolverError, run
 from orchestrate.scene import SceneError
 
+pytestmark = pytest.mark.physics
+
 NO_GLUE = """
 [glue]
 beta0 = 0.0

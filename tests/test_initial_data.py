@@ -15,6 +15,8 @@ from orchestrate.runner import SolverError, run
 from orchestrate.scene import SceneError, Scene
 from tests.conftest import solve
 
+pytestmark = pytest.mark.solver
+
 ZETA0 = "1 - 0.6*exp(-((x - 0.3)^2 + (y - 0.4)^2)/0.05)"
 BETA0 = "0.5 + 0.4*sin(3*x)"
 
@@ -109,6 +111,7 @@ def test_initial_data_outside_the_unit_interval_are_refused_with_the_position(tm
     assert all(word in str(error.value) for word in words), str(error.value)
 
 
+@pytest.mark.unit
 def test_an_initial_value_in_time_or_out_of_range_is_refused_in_the_scene():
     with pytest.raises(SceneError, match=r"glue.beta0 = 't\*x'.*name 't' is not allowed.*expression of the position"):
         Scene.load(REPO / "scenes" / "peel.toml", {"glue.beta0": "t*x"})

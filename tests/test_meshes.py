@@ -15,6 +15,8 @@ from orchestrate import mesh
 from orchestrate.freefem import REPO
 from orchestrate.mesh import MeshError, MeshLimits, TooLarge, body_mesh, cache_key
 
+pytestmark = pytest.mark.solver
+
 
 @pytest.mark.parametrize("body, n", [(1, 24), (2, 32)])
 def test_committed_mesh_matches_its_source(tmp_path, body, n):
@@ -24,6 +26,7 @@ def test_committed_mesh_matches_its_source(tmp_path, body, n):
     np.testing.assert_array_equal(fresh.cells_dict["triangle"], committed.cells_dict["triangle"])
 
 
+@pytest.mark.unit
 def test_default_traces_do_not_match():
     counts = []
     for body, n in [(1, 24), (2, 32)]:
@@ -99,6 +102,7 @@ def test_refinement_splits_every_triangle_in_four(tmp_path):
     assert old <= {tuple(np.round(point[:2], 12)) for point in fine.points}
 
 
+@pytest.mark.unit
 def test_the_cache_key_follows_included_files(tmp_path):
     """A graded mesh's size law lives in an included file: editing it must give a new mesh."""
     for name in ("paper_body2_graded.geo", "graded_size.geo"):
@@ -212,6 +216,7 @@ def meshio_facts(path):
 
 
 @pytest.mark.parametrize("name", ["paper_body1-n24.msh", "paper_body2-n32.msh"])
+@pytest.mark.unit
 def test_a_mesh_file_is_read_as_another_reader_reads_it_whatever_its_blanks(tmp_path, name):
     """read_msh parses whole sections at once: its counts must be meshio's, also for the same file
     written with tabs, runs of spaces and CRLF line ends, which the format allows."""
@@ -233,6 +238,7 @@ def test_a_mesh_file_is_read_as_another_reader_reads_it_whatever_its_blanks(tmp_
     ("cut short", lambda fields: fields[:3]),
     ("not numbers of the \\$Nodes section", lambda fields: fields[:-1] + ["999999"]),
 ])
+@pytest.mark.unit
 def test_a_malformed_element_line_is_named(tmp_path, fault, damage):
     from orchestrate.mesh import parse_msh
 
@@ -246,6 +252,7 @@ def test_a_malformed_element_line_is_named(tmp_path, fault, damage):
         parse_msh(damaged)
 
 
+@pytest.mark.unit
 def test_a_mesh_file_without_elements_reads_as_no_triangles(tmp_path):
     from orchestrate.mesh import parse_msh
 

@@ -4,6 +4,8 @@ import pytest
 from conftest import gmsh_mesh
 from orchestrate.freefem import REPO, run_script
 
+pytestmark = pytest.mark.solver
+
 
 def mortar_facts(upper, lower, contactLabel1=1, contactLabel2=3):
     done = run_script(REPO / "tests" / "edp" / "mortar_check.edp",

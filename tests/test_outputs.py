@@ -11,6 +11,8 @@ from orchestrate.cli import main
 from orchestrate.freefem import REPO
 from orchestrate.outputs import RECORD, OutputError, claim_folder, refuse_file
 
+pytestmark = pytest.mark.unit
+
 PAPER = REPO / "scenes" / "paper.toml"
 
 

@@ -19,6 +19,8 @@ from orchestrate.mesh import MeshError, MeshLimits, body_mesh
 from orchestrate.runner import run
 from orchestrate.scene import SceneError
 
+pytestmark = pytest.mark.runs
+
 SCENE = '''title = "two blocks of the user's own .geo"
 
 [time]
@@ -81,6 +83,7 @@ def history_rows(folder: Path) -> list[str]:
 
 # --- where a scene's .geo is ------------------------------------------------------------------
 
+@pytest.mark.unit
 def test_a_relative_geo_is_taken_beside_the_scene_file_from_any_working_folder(tmp_path, monkeypatch):
     scene = project(tmp_path / "proj")
     monkeypatch.chdir(tmp_path)
@@ -90,6 +93,7 @@ def test_a_relative_geo_is_taken_beside_the_scene_file_from_any_working_folder(t
     assert Scene.load(scene).body2.mesh.source() == tmp_path / "proj" / "shapes" / "block.geo"
 
 
+@pytest.mark.unit
 def test_the_project_meshes_path_is_found_in_the_repository_unless_the_scene_has_its_own(tmp_path):
     scene = project(tmp_path, "meshes/rectangle.geo")
     assert Scene.load(scene).body1.mesh.source() == tmp_path / "meshes" / "rectangle.geo"
@@ -97,6 +101,7 @@ def test_the_project_meshes_path_is_found_in_the_repository_unless_the_scene_has
     assert Scene.load(scene).body1.mesh.source() == REPO / "meshes" / "rectangle.geo"
 
 
+@pytest.mark.unit
 def test_a_scene_as_data_names_the_same_file_wherever_it_is_validated(tmp_path, monkeypatch):
     """A sweep sends its worker the scene as data (model_dump): the path was resolved on loading."""
     data = Scene.load(project(tmp_path / "proj")).model_dump(mode="json")
@@ -104,6 +109,7 @@ def test_a_scene_as_data_names_the_same_file_wherever_it_is_validated(tmp_path, 
     assert Scene.model_validate(data).body1.mesh.source() == tmp_path / "proj" / "shapes" / "block.geo"
 
 
+@pytest.mark.unit
 def test_a_missing_geo_names_where_it_was_looked_for(tmp_path):
     scene = project(tmp_path)
     scene.write_text(scene.read_text().replace("shapes/block.geo", "meshes/nowhere.geo"))
@@ -115,6 +121,7 @@ def test_a_missing_geo_names_where_it_was_looked_for(tmp_path):
 
 # --- what a .geo may not do ---------------------------------------------------------------------
 
+@pytest.mark.unit
 def test_every_project_geo_is_read_with_its_includes():
     sources = sorted((REPO / "meshes").glob("*.geo"))
     assert len(sources) >= 10
@@ -173,6 +180,7 @@ def test_what_a_geo_does_stays_in_the_mesher_s_sandbox(tmp_path, code):
     assert sorted(path for path in tmp_path.iterdir() if path.name != "cache") == before
 
 
+@pytest.mark.unit
 def test_file_exists_which_the_sandbox_cannot_hide_is_refused_naming_file_line_and_includer(tmp_path):
     (tmp_path / "parts").mkdir()
     (tmp_path / "parts" / "size.geo").write_text('found = FileExists("/etc/passwd");\n')
@@ -184,12 +192,14 @@ def test_file_exists_which_the_sandbox_cannot_hide_is_refused_naming_file_line_a
             ) in str(error.value)
 
 
+@pytest.mark.unit
 def test_what_comments_and_strings_hold_is_not_code(tmp_path):
     source = tmp_path / "block.geo"
     source.write_text(RECTANGLE + '// FileExists("x");\n/* Include "y.geo";\nExit; */\nPrintf("FileExists %g", n);\n')
     assert [file.path for file in read_sources(source)] == [source]
 
 
+@pytest.mark.unit
 def test_symbolic_links_are_resolved_and_their_targets_read(tmp_path):
     (tmp_path / "hidden").mkdir()
     bad = tmp_path / "hidden" / "bad.geo"
@@ -210,6 +220,7 @@ def test_symbolic_links_are_resolved_and_their_targets_read(tmp_path):
             Scene.load(scene)
 
 
+@pytest.mark.unit
 def test_a_geo_edited_after_the_scene_was_read_is_read_again_before_gmsh(tmp_path):
     """By the run (which validates its scene again) and by the mesher, which meshes a copy of the
     text it read."""
@@ -352,7 +363,7 @@ def test_a_contact_label_on_two_separate_curves_is_refused_naming_the_field(tmp_
 
 def test_a_label_on_a_curve_outside_the_meshed_surface_is_refused_naming_it(tmp_path):
     """A line below the rectangle in label 1: its nodes are in no triangle (FreeFEM's matrices
-    would be singular there, "the matrix A/k of body 1 is not finite and positive")."""
+    would be singular there, "the matrix K of body 1 is not finite and positive")."""
     with pytest.raises(SceneError) as error:
         run(project(tmp_path, text=LOOSE_LINE), tmp_path / "run")
     assert str(error.value).startswith("body1.mesh.geo: label 1 of body 1's mesh is on a curve that bounds none of "

@@ -6,6 +6,8 @@ import pytest
 
 from conftest import solve_ok
 
+pytestmark = pytest.mark.physics
+
 N = 40
 
 

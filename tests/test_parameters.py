@@ -1,5 +1,6 @@
-"""One source for every parameter: the driver and the scene schema both read edp/lib/parameters.md,
-and here each side is held to the table — the defaults a default run uses, and the accepted
+"""One source for every parameter: edp/lib/parameters.toml, which the scene schema reads and from
+which the driver's includes are generated; here the generated files are held to it, and each side
+to the table — the defaults a default run uses, and the accepted
 range of every bounded parameter, value by value at its bounds."""
 import json
 
@@ -8,7 +9,9 @@ import pytest
 from orchestrate import Scene, SceneError, run
 from orchestrate.freefem import MAIN, REPO, run_script
 from orchestrate.identity import solver_identity
-from orchestrate.parameters import PARAMETERS
+from orchestrate.parameters import PARAMETERS, SCHEMES, generated
+
+pytestmark = pytest.mark.solver
 
 CHECK = REPO / "edp" / "tools" / "check.edp"
 MINIMAL = """
@@ -27,6 +30,36 @@ label = 3
 [output]
 images = false
 """
+
+
+@pytest.mark.parametrize("path", list(generated()), ids=lambda path: path.name)
+@pytest.mark.unit
+def test_the_generated_files_are_the_table_s(path):
+    assert path.read_text() == generated()[path], f"{path} is stale: run python -m orchestrate reference --force"
+
+
+@pytest.mark.unit
+def test_no_library_names_a_scheme():
+    """The schemes are data: their names appear in the files generated from the table only."""
+    for path in (REPO / "edp").rglob("*.idp"):
+        if path not in generated():
+            text = path.read_text()
+            assert not any(f'"{name}"' in text for name in SCHEMES), path
+
+
+@pytest.mark.unit
+def test_each_scheme_s_coefficients_are_consistent():
+    """Facts of the schemes that hold independently of the code: the rate weights are exact on
+    linear functions (sum 0, first moment 1) and the first is the viscous weight; the
+    extrapolation keeps constants, and a two-level one is exact on linear functions; only an
+    implicit elasticity lifts the elastic bound."""
+    for name, scheme in SCHEMES.items():
+        w = scheme["rateWeights"]
+        assert sum(w) == 0 and -(w[1] + 2 * w[2]) == 1 and w[0] == scheme["viscousWeight"], name
+        e = scheme["extrapolation"]
+        assert sum(e) == 1 and (scheme["levels"] == 1) == (e[1] == 0 and w[2] == 0), name
+        assert scheme["levels"] == 1 or e[0] + 2 * e[1] == 0, name
+        assert (scheme["elasticBound"] == 0) == scheme["elasticImplicit"], name
 
 
 def expected(parameter):
@@ -112,6 +145,7 @@ def test_choices_are_the_same_on_both_sides(name):
         Scene.load(REPO / "scenes" / "paper.toml", {parameter.scene: "nonesuch"})
 
 
+@pytest.mark.unit
 def test_every_scene_key_of_the_table_is_a_scene_field():
     scene = Scene.load(REPO / "scenes" / "paper.toml").model_dump(mode="json")
     for parameter in PARAMETERS.values():

@@ -8,6 +8,8 @@ from orchestrate.freefem import InputError
 from orchestrate.plot import plot_sweep, read_sweep, series
 from orchestrate.sweep import write_table
 
+pytestmark = pytest.mark.unit
+
 LOADS = ("-10*min(t, 1)", "atan2(y, x)*t")
 
 

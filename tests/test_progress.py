@@ -12,6 +12,8 @@ from orchestrate.freefem import REPO, InputError
 from orchestrate.progress import loop_pace, pace_note, wanted
 from orchestrate.stability import stability
 
+pytestmark = pytest.mark.runs
+
 PAPER = REPO / "scenes" / "paper.toml"
 COARSE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20}
 
@@ -21,6 +23,7 @@ def counts(stderr: str, total: int) -> list[int]:
     return [int(n) for n in re.findall(rf"(\d+)/{total}\b", stderr)]
 
 
+@pytest.mark.unit
 def test_the_rate_and_time_left_leave_the_set_up_out():
     # 10 s of set-up, then a step every 0.1 s: at t = 12 s, 20 of 100 steps are done.
     assert loop_pace((10.0, 0), 12.0, 20, 100) == pytest.approx((10.0, 8.0))
@@ -32,6 +35,7 @@ def test_the_rate_and_time_left_leave_the_set_up_out():
     assert loop_pace((10.0, 0), 10.5, 0, 100) is None  # set-up over, no step of the loop yet
 
 
+@pytest.mark.unit
 def test_the_note_gives_a_rate_and_the_time_left_once_there_is_one():
     assert pace_note(None) == "first step"
     assert pace_note((10.0, 8.0)) == "10 step/s, 00:08 left"
@@ -44,6 +48,7 @@ class Terminal(io.StringIO):
         return True
 
 
+@pytest.mark.unit
 def test_auto_shows_progress_on_a_terminal_or_in_a_notebook_and_nowhere_else(monkeypatch):
     monkeypatch.setattr(sys, "stderr", io.StringIO())  # a pipe, a CI log
     monkeypatch.delitem(sys.modules, "IPython", raising=False)

@@ -3,7 +3,11 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 from orchestrate.freefem import REPO
+
+pytestmark = pytest.mark.runs
 
 
 def test_readme_python_example_runs(tmp_path):
@@ -20,6 +24,7 @@ def test_readme_python_example_runs(tmp_path):
     assert (tmp_path / "results" / "sweep-example" / "betaMin-vs-glue.gammaNu.png").is_file()
 
 
+@pytest.mark.unit
 def test_every_orchestrate_command_of_the_readme_is_one_the_cli_accepts():
     """Each `python -m orchestrate ...` line of README.md's shell blocks parses with the command
     line's own parser (commands, studies, options and their values), and each `make` target named

@@ -3,8 +3,12 @@ schema gives today (`python -m orchestrate reference --force` rewrites it), and 
 may hold, with the table's limits where the schema checks them itself."""
 from __future__ import annotations
 
+import pytest
+
 from orchestrate.parameters import PARAMETERS
 from orchestrate.reference import PAGE, page
+
+pytestmark = pytest.mark.unit
 
 
 def test_the_committed_reference_is_the_schema_s():

@@ -20,6 +20,8 @@ from orchestrate.manifest import IncompleteRun
 from orchestrate.scene import to_freefem_scene
 from orchestrate.sweep import folder_name
 
+pytestmark = pytest.mark.runs
+
 PAPER_TOML = REPO / "scenes" / "paper.toml"
 PAPER = PAPER_TOML.read_text()
 COARSE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
@@ -64,6 +66,7 @@ def no_freefem(monkeypatch):
 
 
 @pytest.mark.parametrize("old, new", INJECTIONS, ids=[new[:40] for _, new in INJECTIONS])
+@pytest.mark.unit
 def test_injection_attempts_are_refused_before_freefem_starts(tmp_path, no_freefem, old, new):
     assert old in PAPER
     scene = tmp_path / "evil.toml"
@@ -79,6 +82,7 @@ GENERATED_LINE = re.compile(
     r'|macro boundaryLabels[12] [0-9]+(, [0-9]+)* //')
 
 
+@pytest.mark.unit
 def test_the_generated_freefem_scene_holds_only_data_and_whitelisted_expressions():
     scene = Scene.load(PAPER_TOML, {"body1.boundary.1.fy": "-10*t*(x <= 3) + sin(y)^2/max(t, 1e-3)"})
     text = to_freefem_scene(scene)
@@ -87,6 +91,7 @@ def test_the_generated_freefem_scene_holds_only_data_and_whitelisted_expressions
     assert 'setParam("mesh1", "body1.msh");' in text  # no path: the run's folder holds its meshes
 
 
+@pytest.mark.unit
 def test_sweep_folder_names_cannot_leave_the_sweep_folder():
     for value in ("../../etc", "/etc/passwd", "a/../../b", "..", "x\ny"):
         name = folder_name({"title": value})
@@ -145,6 +150,7 @@ def test_bad_command_lines_are_refused(tmp_path, args, code, words):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.unit
 def test_bad_input_through_the_python_api(tmp_path):
     with pytest.raises(SceneError, match="time.N = 0"):
         run(PAPER_TOML, tmp_path / "a", {"time.N": 0})

@@ -15,6 +15,8 @@ from orchestrate.outputs import RECORD
 from orchestrate.render import render_fields
 from orchestrate.results import cell_field
 
+pytestmark = pytest.mark.runs
+
 
 @pytest.fixture(scope="module")
 def coarse(tmp_path_factory):
@@ -100,6 +102,7 @@ def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, 
     assert "also holds notes.txt" in capsys.readouterr().err and (out / "notes.txt").exists()
 
 
+@pytest.mark.unit
 def test_a_field_uniform_to_round_off_is_shown_as_one_colour():
     from orchestrate.render import colour_range
 
@@ -111,6 +114,7 @@ def test_a_field_uniform_to_round_off_is_shown_as_one_colour():
     assert colour_range(spread) == (0.2, 0.9)
 
 
+@pytest.mark.unit
 def test_the_images_label_the_scenes_units(tmp_path):
     """output.units: the solver needs none (consistent units), the images must say which."""
     from types import SimpleNamespace

@@ -20,6 +20,8 @@ from orchestrate import run, sweep
 from orchestrate.freefem import MAIN, REPO, freefem_command, freefem_env, run_script
 from orchestrate.runner import RunError
 
+pytestmark = pytest.mark.runs
+
 PAPER = REPO / "scenes" / "paper.toml"
 # The paper's scene over 15 s: damage keeps growing, the contact set and the glue change.
 DRIVER = ["-N", "600", "-T", "15", "-outTimes", "3,6,9,12,15", "-outFields", "bodies,stress,contact,state",

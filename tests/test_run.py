@@ -15,6 +15,8 @@ from orchestrate import Scene, SolverError, load_result, run
 from orchestrate.freefem import REPO
 from orchestrate.runner import RunError
 
+pytestmark = pytest.mark.runs
+
 PAPER = REPO / "scenes" / "paper.toml"
 COARSE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
 

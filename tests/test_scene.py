@@ -5,6 +5,8 @@ import pytest
 from orchestrate.freefem import REPO
 from orchestrate.scene import Scene, SceneError, apply_overrides
 
+pytestmark = pytest.mark.unit
+
 PAPER = (REPO / "scenes" / "paper.toml").read_text()
 
 

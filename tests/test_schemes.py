@@ -10,6 +10,8 @@ import pytest
 from conftest import SCENES, gmsh_mesh, solve, solve_ok
 from orchestrate.freefem import REPO, run_script
 
+pytestmark = pytest.mark.physics
+
 T = 1.0
 PUSH_RATE = 0.05                 # top of body 1 displaced by −PUSH_RATE·t (tests/scenes/blocks.idp)
 HEIGHT, WIDTH = (1.0, 1.0), 2.0  # body 1, body 2
@@ -91,6 +93,7 @@ def test_uniform_creep_converges_to_the_continuous_solution_at_the_scheme_s_orde
     assert np.all(rates > order[0] - 0.15), (errors, rates)
 
 
+@pytest.mark.unit
 def test_the_exact_creep_pressure_is_the_elastic_limit_after_long_times():
     """A check of the exact solution itself: at a constant strain rate the viscous stress tends to a
     constant and the pressure grows linearly; its long-time slope is the elastic one."""

@@ -11,6 +11,8 @@ from orchestrate.runner import resolve_steps
 from orchestrate.scene import Scene, SceneError
 from orchestrate.steps import relative_distance
 
+pytestmark = pytest.mark.physics
+
 PAPER = REPO / "scenes" / "paper.toml"
 QUIET = {"output.times": "final", "output.fields": ["state"], "output.images": False}
 REFERENCE_STEPS = 640  # bdf2: its own time error about 1e-9 here, below every target
@@ -35,6 +37,7 @@ def test_the_chosen_steps_reach_the_target_time_error(tmp_path, reference, schem
     assert Scene.load(result.folder / "scene.toml").time.N == plan["N"]  # the folder's scene reruns it as it ran
 
 
+@pytest.mark.unit
 def test_a_continued_run_keeps_its_plan(tmp_path):
     scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-3})
     (tmp_path / "steps.json").write_text(json.dumps({"N": 37}))
@@ -50,12 +53,14 @@ def test_a_continued_run_keeps_its_plan(tmp_path):
     ({"time.N": "sometimes"}, "time.N = 'sometimes': Input should be an integer in [1, 10000000] or \"auto\""),
     ({"time.N": 2.5}, "time.N = 2.5: Input should be an integer"),
 ])
+@pytest.mark.unit
 def test_bad_step_requests_are_refused_by_name(overrides, words):
     with pytest.raises(SceneError) as caught:
         Scene.load(PAPER, overrides)
     assert words in str(caught.value)
 
 
+@pytest.mark.unit
 def test_a_given_N_replaces_auto_and_its_target():
     scene = Scene.load(REPO / "scenes" / "polymer_pad.toml", {"time.N": 50})
     assert scene.time.N == 50 and scene.time.targetError is None
@@ -70,6 +75,7 @@ def test_pilots_that_never_run_say_why(tmp_path):
     assert "give time.N yourself" in message
 
 
+@pytest.mark.unit
 def test_a_target_beyond_the_largest_n_says_the_n_it_needs_and_the_cap(monkeypatch, tmp_path):
     """An error model of order 1 with error 1e-3 at N = 40 needs N = 40·(1e-3/1e-12) = 4e10 for
     1e-12 (was: "N = -1.48431e+09 is out of range", an integer overflow in the driver)."""
@@ -86,6 +92,7 @@ def test_a_target_beyond_the_largest_n_says_the_n_it_needs_and_the_cap(monkeypat
         steps.choose_steps(scene, tmp_path)
 
 
+@pytest.mark.unit
 def test_a_pilot_mesh_that_cannot_be_made_is_said_to_be_the_rule_s(monkeypatch, tmp_path):
     from orchestrate import runner, steps
     from orchestrate.mesh import MeshError

@@ -13,6 +13,8 @@ import pytest
 from orchestrate.freefem import REPO, run_script
 from orchestrate.mesh import body_mesh, write_freefem
 
+pytestmark = pytest.mark.solver
+
 CHECK = textwrap.dedent("""
     load "strainoperators"
     mesh Th = square(7, 5);

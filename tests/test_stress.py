@@ -9,6 +9,8 @@ import pytest
 from conftest import SCENES, gmsh_mesh, solve, solve_ok
 from orchestrate.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
 
+pytestmark = pytest.mark.physics
+
 
 def assert_invariants(result):
     h, tol = result.history, result.params["contactTol"]

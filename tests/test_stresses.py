@@ -10,6 +10,8 @@ import pytest
 
 from orchestrate.freefem import run_script
 
+pytestmark = pytest.mark.solver
+
 CHECK = textwrap.dedent("""
     load "stresses"
     int n = 257;

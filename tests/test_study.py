@@ -7,6 +7,8 @@ import pytest
 from orchestrate.freefem import REPO
 from orchestrate.convergence import convergence, rates
 
+pytestmark = pytest.mark.physics
+
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
@@ -51,6 +53,7 @@ def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_
     assert 0.9 < rates(table, "time euler")["errorV"]["reference"] < 1.1
 
 
+@pytest.mark.unit
 def test_every_option_of_every_command_says_its_default():
     """`--help` of each command and study: an option with a default names it (argparse's own,
     or the option's text)."""
@@ -76,6 +79,7 @@ def test_every_option_of_every_command_says_its_default():
                 assert "default" in block, (name, action.option_strings)
 
 
+@pytest.mark.unit
 def test_the_time_ladders_never_run_on_meshes_finer_than_the_space_ladder():
     from orchestrate.convergence import time_mesh_level
     from orchestrate.freefem import InputError

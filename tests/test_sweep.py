@@ -12,6 +12,8 @@ from orchestrate import SceneError, sweep
 from orchestrate.freefem import REPO
 from orchestrate.sweep import grid_of, parse_grid, plan
 
+pytestmark = pytest.mark.runs
+
 SCENE = REPO / "scenes" / "paper.toml"
 BASE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
 GRID = {"glue.gammaNu": [0.0, 1.0, 2.0, 1e7]}  # a glue of 1e7 is far too stiff for the explicit scheme
@@ -66,12 +68,14 @@ def test_changed_inputs_are_run_again(first):
     assert rows[0]["status"] == "completed"
 
 
+@pytest.mark.unit
 def test_an_invalid_combination_is_recorded_without_running(tmp_path):
     rows = sweep(SCENE, {"time.N": [0, 20]}, tmp_path, {k: v for k, v in BASE.items() if k != "time.N"}, workers=1)
     assert rows[0]["status"] == "invalid" and "--grid time.N = 0" in rows[0]["error"]  # named as the user gave it
     assert rows[1]["status"] == "completed"
 
 
+@pytest.mark.unit
 def test_a_sweep_runs_on_an_existing_cluster_given_its_address(tmp_path):
     from dask.distributed import LocalCluster
 
@@ -95,6 +99,7 @@ def test_a_sweep_draws_images_only_when_asked(tmp_path, images):
 
 # --- the grid's syntax ---------------------------------------------------------------------
 
+@pytest.mark.unit
 def test_a_toml_list_sweeps_expressions_whole_commas_and_all():
     grid = parse_grid(['body1.boundary[label=4].fy=["-10*min(t, 1)", \'atan2(y, x)\', "pow(x, 2)*max(t, 0.5)", -3]',
                        "time.N=20, 40", "solver.contactSolver=pdas,bm", "glue.gammaNu=[0, 1.5]"])
@@ -112,6 +117,7 @@ def test_a_toml_list_sweeps_expressions_whole_commas_and_all():
     ('time.N=[20, 40', ["--grid time.N=[20, 40", "not a TOML list", "Unclosed array"]),
     ("time.N", ["--grid 'time.N'", "expected key=value1,value2,... or key=[value1, value2, ...]"]),
 ])
+@pytest.mark.unit
 def test_a_grid_that_would_cut_or_misread_a_value_is_refused_showing_the_list_form(item, words):
     with pytest.raises(SceneError) as error:
         parse_grid([item])
@@ -119,6 +125,7 @@ def test_a_grid_that_would_cut_or_misread_a_value_is_refused_showing_the_list_fo
         assert word in str(error.value), (word, str(error.value))
 
 
+@pytest.mark.unit
 def test_grid_keys_are_checked_against_the_scene_before_anything_runs(tmp_path):
     with pytest.raises(SceneError, match=r"--grid body1.boundary\[label=9\].fy: no condition .* on label 9 \(its "
                                          r"conditions: 0 clamped on label 5, 1 traction on label 4, 2 traction on label 2"):
@@ -128,6 +135,7 @@ def test_grid_keys_are_checked_against_the_scene_before_anything_runs(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.unit
 def test_a_grid_file_gives_the_plan_of_the_same_grid_on_the_command_line(tmp_path):
     loads = '["-10*min(t, 1)", "-10*atan2(t, 1)"]'
     path = tmp_path / "grid.toml"
@@ -181,6 +189,7 @@ def test_a_sweep_of_two_loads_with_commas_scales_the_contact_force_as_the_loads_
     assert float(double["normV"]) / float(single["normV"]) == pytest.approx(2, rel=1e-9)
 
 
+@pytest.mark.unit
 def test_a_grid_key_that_names_a_set_value_is_refused_before_anything_runs(tmp_path):
     """However each is spelt, --set and --grid naming one value would either let the grid overrule
     the --set value silently or make every run invalid."""
@@ -207,6 +216,7 @@ def test_a_grid_above_the_cap_asks_for_yes_before_building_a_scene(tmp_path):
         [sys.executable, "-m", "orchestrate", "sweep", "--help"], capture_output=True, text=True, cwd=REPO).stdout
 
 
+@pytest.mark.unit
 def test_expressions_that_differ_in_surrounding_spaces_are_one_value(tmp_path):
     grid = {"body1.boundary[label=4].fy": ["-10*t", "-10*t "]}
     with pytest.raises(SceneError, match=r"'-10\*t'} and .*'-10\*t '} are the same run: list each value once"):
@@ -227,6 +237,7 @@ def test_a_sweep_from_a_script_on_standard_input_says_to_save_it_to_a_file(tmp_p
            "file and run `python script.py`" in done.stderr.splitlines()[-1]
 
 
+@pytest.mark.unit
 def test_a_grid_nested_too_deeply_names_its_file(tmp_path):
     path = tmp_path / "grid.toml"
     for depth in (18, 3000):  # past the grid's limit; past what the TOML reader can follow

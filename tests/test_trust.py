@@ -23,6 +23,7 @@ from orchestrate.manifest import IncompleteRun
 from orchestrate.mesh import CACHE, MeshError, MeshInfo, body_mesh, read_msh
 from orchestrate.runner import SUFFIXES, RunError, TooLarge, require_labels
 
+pytestmark = pytest.mark.runs
 
 PAPER = REPO / "scenes" / "paper.toml"
 COARSE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False}
@@ -80,6 +81,7 @@ def test_any_folder_name_a_file_system_allows_holds_a_run(name):
     ("x" * 250, ["250 bytes long", "at most 246"]),
     ("/", ["names no folder"]),
 ])
+@pytest.mark.unit
 def test_folder_names_that_cannot_hold_a_run_are_refused_before_anything_starts(tmp_path, name, words):
     with pytest.raises(InputError) as error:
         run(PAPER, name if name == "/" else tmp_path / name, COARSE)
@@ -113,6 +115,7 @@ def test_a_checkout_whose_path_has_hash_semicolon_backslash_quotes_and_spaces_ru
     ("body2.mesh.contactLabel", 9, ["body2.mesh.contactLabel = 9"]),
     ("body2.mesh.contactLabel", [3, 9], ["body2.mesh.contactLabel = [3, 9]", "no boundary label 9"]),
 ])
+@pytest.mark.unit
 def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(tmp_path, key, value, words):
     with pytest.raises(SceneError) as error:
         run(PAPER, tmp_path / "run", {**COARSE, key: value})
@@ -123,6 +126,7 @@ def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(t
 
 @settings(max_examples=200, deadline=None)
 @given(present=st.sets(st.integers(0, 12), min_size=1), named=st.lists(st.integers(0, 12), min_size=1, max_size=5))
+@pytest.mark.unit
 def test_labels_are_refused_exactly_when_one_is_missing(present, named):
     scene = Scene.load(PAPER)
     body = scene.body1.model_copy(update={"boundary": [b.model_copy(update={"label": label})
@@ -149,6 +153,7 @@ def test_the_driver_checks_a_hand_written_scene_s_labels(tmp_path):
 
 # --- 3. sweep folders never collide -------------------------------------------------------------
 
+@pytest.mark.unit
 def test_combinations_that_sanitize_alike_get_their_own_folders_and_a_swap_is_noticed(tmp_path):
     grid = {"body1.boundary.1.fy": ["(x<=3)*(-10*t)", "(x>=3)*(-10*t)"]}
     rows = sweep(PAPER, grid, tmp_path, COARSE, workers=1)
@@ -250,6 +255,7 @@ def test_a_second_run_into_a_folder_being_written_is_refused(tmp_path):
     assert len(load_result(out).history["t"]) == 4000  # whole, and the first run's alone
 
 
+@pytest.mark.unit
 def test_force_through_a_symbolic_link_deletes_nothing(tmp_path):
     target = tmp_path / "precious"
     target.mkdir()
@@ -276,6 +282,7 @@ def test_force_replaces_only_run_folders(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["file", "link"])
+@pytest.mark.unit
 def test_a_partial_that_is_not_a_run_s_folder_is_refused(tmp_path, kind):
     partial = tmp_path / "run.partial"
     if kind == "file":
@@ -313,6 +320,7 @@ def test_a_partial_that_is_not_a_run_s_folder_is_refused(tmp_path, kind):
     ({"body1.mesh.timeLimit": float("nan")}, ["body1.mesh.timeLimit", "finite"]),
     ({"body1.mesh.timeLimit": True}, ["body1.mesh.timeLimit", "valid number"]),
 ])
+@pytest.mark.unit
 def test_bad_scene_values_are_refused_naming_the_key(tmp_path, overrides, words):
     with pytest.raises(SceneError) as error:
         run(PAPER, tmp_path / "run", {**COARSE, **overrides})
@@ -340,6 +348,7 @@ def test_a_mesh_too_large_for_this_machine_is_refused_with_the_estimate(tmp_path
                             "damage.zetaMin", "solver.contactTol", "body1.damage.zeta0", "solver.divergenceFactor"]),
        value=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-2 ** 70, 2 ** 70),
                        st.sampled_from([0.0, -0.0, 5e-324, 1e-320, 1e308, -1e308, True, False, "1", None])))
+@pytest.mark.unit
 def test_numeric_edge_values_are_valid_or_refused_never_an_error_of_another_kind(key, value):
     from orchestrate.scene import to_freefem_scene
 
@@ -375,6 +384,7 @@ def test_a_title_with_any_characters_round_trips_through_the_run_folder(tmp_path
 
 @settings(max_examples=200, deadline=None)
 @given(title=st.text(st.characters(blacklist_categories=("Cs",)), max_size=60))
+@pytest.mark.unit
 def test_every_title_survives_the_scene_file(title):
     scene = Scene.load(PAPER, {"title": title})
     import tomllib
@@ -422,6 +432,7 @@ def test_a_run_folder_changed_after_the_run_is_not_trusted(tmp_path):
         load_result(result.folder)
 
 
+@pytest.mark.unit
 def test_a_sweep_with_an_invalid_row_runs_the_others(tmp_path):
     rows = sweep(PAPER, {"body1.boundary.1.fy": ["2" + "^2" * 900, "-10*t"]}, tmp_path, COARSE, workers=1)
     assert rows[0]["status"] == "invalid" and "nested deeper" in rows[0]["error"]
@@ -503,6 +514,7 @@ def test_an_interrupted_sweep_writes_its_table_and_marks_what_it_stopped(tmp_pat
 
 # --- found by review: names the runner keeps for itself, and more bad input ----------------------
 
+@pytest.mark.unit
 def test_names_of_the_runner_s_own_folders_are_refused_and_a_user_s_folder_by_such_a_name_is_kept(tmp_path):
     for suffix in (".partial", ".failed", ".replaced"):
         with pytest.raises(InputError, match="the runner's own"):
@@ -526,6 +538,7 @@ def test_a_failed_folder_that_is_a_link_is_replaced_as_a_link(tmp_path):
     assert not (tmp_path / "run.failed").is_symlink()
 
 
+@pytest.mark.unit
 def test_a_rectangle_of_booleans_or_texts_is_refused():
     scene = (REPO / "scenes" / "shear.toml")
     with pytest.raises(SceneError, match="body1.mesh.rectangle"):
@@ -573,7 +586,15 @@ def test_an_edited_parameter_table_runs_again(tmp_path):
     command = ["sweep", "scenes/paper.toml", "--grid", "glue.gammaNu=1", "--set", "time.N=20", "--set",
                "output.images=false", "--workers", "1", "--out", tmp_path / "sweep"]
     assert in_copy(copy, *command).returncode == 0
-    table = copy / "edp" / "lib" / "parameters.md"
-    table.write_text(table.read_text().replace("| boundTol | run | real | 1e-10 |", "| boundTol | run | real | 1e-9 |"))
+    table = copy / "edp" / "lib" / "parameters.toml"
+    reworded = table.read_text().replace('meaning = "slack of the invariants', 'meaning = "the slack of the invariants')
+    table.write_text(reworded)
+    (copy / "docs").mkdir()
+    assert in_copy(copy, "reference", "--force").returncode == 0
+    unchanged = in_copy(copy, *command)  # a meaning is prose: no generated include holds it
+    assert unchanged.returncode == 0 and "skipped" in unchanged.stdout
+    table.write_text(reworded.replace('name = "boundTol"\nscope = "run"\ntype = "real"\ndefault = "1e-10"',
+                                      'name = "boundTol"\nscope = "run"\ntype = "real"\ndefault = "1e-9"'))
+    assert in_copy(copy, "reference", "--force").returncode == 0
     again = in_copy(copy, *command)
     assert again.returncode == 0 and "skipped" not in again.stdout and "completed" in again.stdout

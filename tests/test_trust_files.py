@@ -22,6 +22,7 @@ from orchestrate.results import Result
 from orchestrate.runner import RunError, checkpoint_step, inputs_of, sealed_checkpoint
 from orchestrate.scene import Scene
 
+pytestmark = pytest.mark.runs
 
 PAPER = REPO / "scenes" / "paper.toml"
 STATES = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20, "output.images": False,
@@ -41,15 +42,18 @@ def edp_copy(tmp_path):
     lambda edp: (edp / "plugins" / "damagesource.cpp").write_text(
         (edp / "plugins" / "damagesource.cpp").read_text().replace("0.5", "0.25", 1)),
     lambda edp: (edp / "plugins" / "stresses.so").write_bytes((edp / "plugins" / "stresses.so").read_bytes() + b"\0"),
-    lambda edp: (edp / "lib" / "parameters.md").write_text((edp / "lib" / "parameters.md").read_text() + "\n"),
+    lambda edp: (edp / "lib" / "parameterTable.idp").write_text(
+        (edp / "lib" / "parameterTable.idp").read_text().replace('"1e-10"', '"1e-9"', 1)),
     lambda edp: (edp / "lib" / "damage.idp").write_text((edp / "lib" / "damage.idp").read_text() + "// a comment\n"),
 ], ids=["plugin source", "built plugin", "parameter table", "library"])
+@pytest.mark.unit
 def test_every_change_of_the_solver_s_files_changes_its_identity(edp_copy, change):
     before = solver_identity(edp_copy / "main.edp")
     change(edp_copy)
     assert solver_identity(edp_copy / "main.edp") != before
 
 
+@pytest.mark.unit
 def test_a_new_library_or_plugin_enters_the_identity_with_no_edit(edp_copy):
     """A library included from the driver and the plugin it loads are in the identity as soon as
     the driver names them; a tool script beside the libraries is not part of the program."""
@@ -68,6 +72,7 @@ def test_a_new_library_or_plugin_enters_the_identity_with_no_edit(edp_copy):
         edp_copy.resolve() / "plugins" / "gluesource.so" in files
 
 
+@pytest.mark.unit
 def test_a_run_s_inputs_hold_the_solver_s_identity():
     assert inputs_of(Scene.load(PAPER))["solver"] == solver_identity()
 
@@ -188,6 +193,7 @@ def sealed(lines: list[str], step: int, identity: str = "f" * 64) -> bytes:
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(lines=st.lists(st.text(st.characters(blacklist_categories=["Cs", "Cc"]), max_size=20), min_size=1, max_size=8),
        step=st.integers(1, 10**6), cut=st.integers(0, 10**6), kind=st.sampled_from(["drop", "repeat", "cut", "step"]))
+@pytest.mark.unit
 def test_a_checkpoint_is_whole_exactly_when_its_seal_matches(tmp_path, lines, step, cut, kind):
     path = tmp_path / "checkpoint-a.txt"
     data = sealed(lines, step)
@@ -202,6 +208,7 @@ def test_a_checkpoint_is_whole_exactly_when_its_seal_matches(tmp_path, lines, st
     assert sealed_checkpoint(path) is None and checkpoint_step(tmp_path) == 0
 
 
+@pytest.mark.unit
 def test_resume_refuses_a_checkpoint_of_another_run_identity(tmp_path):
     """inputs.json says these inputs, the checkpoint another run's: refused, not continued."""
     scene = Scene.load(PAPER, STATES)

@@ -36,6 +36,8 @@ from conftest import SCENES, solve  # noqa: E402
 from orchestrate.freefem import REPO  # noqa: E402
 from orchestrate.runner import run  # noqa: E402
 
+pytestmark = pytest.mark.physics
+
 RECORD = Path(__file__).resolve().parent / "golden" / "results.json"
 FILES = {"outTimes": "0.5,1", "outFields": "bodies,stress,contact,state"}
 SCENE_FILES = {"output.times": [0.5, 1.0], "output.fields": ["bodies", "stress", "contact", "state"],

@@ -9,6 +9,8 @@ import pytest
 from conftest import solve_ok
 from orchestrate.freefem import REPO, run_script
 
+pytestmark = pytest.mark.physics
+
 
 def printed(done) -> dict[str, list[float]]:
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr
