@@ -89,6 +89,20 @@ class Result:
             files = self.outputs[int(np.argmin(abs(times - time)))][1]
         return meshio.read(files[part])
 
+    def grid(self, part: str, time: float | None = None):
+        """One part at an output time (default the last) as a pyvista dataset, for pyvista's own
+        filters: a body's triangles with u, ζ (point data) and the stresses (cell data: one value
+        a triangle), the contact line with gap, pressure and slip. u has a zero third component,
+        so `grid.warp_by_vector("u", factor=10)` draws the deformed body, and
+        `grid.sample_over_line((3, 0.5, 0), (3, 6, 0))` gives σ22 along a line
+        (docs/usage.md, "Fields as pyvista datasets")."""
+        import pyvista
+
+        grid = pyvista.from_meshio(self.fields(part, time))
+        if part != "contact":  # the labelled boundary edges carry no field of the body
+            grid = grid.extract_cells_by_type(pyvista.CellType.TRIANGLE)
+        return grid
+
 
 STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
 

@@ -549,8 +549,21 @@ def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None 
         "contactItersPerStep": float(result.history["contactIters"].mean()),
         "timing": {name: round(value, 6) if value is not None else None for name, value in timing.items()},
         "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
-        "scene": scene.model_dump(mode="json"),
+        "scene": portable(scene.model_dump(mode="json")),
     }
+
+
+def portable(data):
+    """A scene's dump with the files of the repository named from its root (meshes/x.geo), as
+    the shipped scenes name them: summary.json is a record people read and commit, and the
+    checkout's own folder is no part of the run (scene.toml keeps the paths the run read)."""
+    if isinstance(data, dict):
+        return {key: portable(value) for key, value in data.items()}
+    if isinstance(data, list):
+        return [portable(value) for value in data]
+    if isinstance(data, str) and data.startswith(f"{REPO}/"):
+        return data[len(f"{REPO}/"):]
+    return data
 
 
 def run_warnings(run_facts: dict, k: float) -> list[str]:

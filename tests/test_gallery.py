@@ -62,12 +62,17 @@ def bonding_along_x(result: Result, time: float) -> tuple[np.ndarray, np.ndarray
     return x[order], beta[order]
 
 
-def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
+@pytest.mark.parametrize("scheme", ["euler", "semi-implicit", "bdf2"])
+def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path, scheme):
     """u = −0.01 t (x, y): ε(u) = −0.01 t I, isotropic, so a frictionless interface of any
     slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (docs/model.md §2), ζ uniform:
     σⁿ = −(2μ + η)·0.01 − ζⁿ E/(1 − ν)·0.01 tₙ in every triangle; the contact pressure balances
-    step n's equation, with ζⁿ⁻¹ and uⁿ⁻¹ in the explicit term (docs/model.md §6)."""
-    result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final"})
+    step n's equation (docs/model.md §6, §9), whose rate is exact on this u for every scheme and
+    whose elastic part is, with e = 0.01 E/(1 − ν): euler e ζⁿ⁻¹ tₙ₋₁ (explicit in ζⁿ⁻¹, uⁿ⁻¹);
+    semi-implicit e (tₙ − (1 − ζⁿ⁻¹) tₙ₋₁) (G implicit, its weakening explicit); bdf2 e ζ* tₙ
+    (ζ* = 2ζⁿ⁻¹ − ζⁿ⁻², and u* = 2uⁿ⁻¹ − uⁿ⁻² is uⁿ for a u linear in t)."""
+    result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final",
+                                                 "time.scheme": scheme})
     p, h = result.params, result.history
     E, nu, mu, eta, T, N = p["E1"], p["nu1"], p["mu1"], p["eta1"], p["T"], p["N"]
     k = T / N
@@ -75,7 +80,8 @@ def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
     assert np.allclose([h["zetaMax1"], h["zetaMin2"], h["zetaMax2"]], zeta, rtol=0, atol=1e-14)
     viscous, elastic = (2 * mu + eta) * 0.01, E / (1 - nu) * 0.01
     stress = viscous + elastic * zeta[-1] * T
-    pressure = viscous + elastic * zeta[-2] * (T - k)
+    pressure = viscous + elastic * {"euler": zeta[-2] * (T - k), "semi-implicit": T - (1 - zeta[-2]) * (T - k),
+                                     "bdf2": min(max(2 * zeta[-2] - zeta[-3], 0), 1) * T}[scheme]
     for body in ("body1", "body2"):
         mesh = result.fields(body)
         assert np.allclose(cell_field(mesh, "vonMises"), stress, rtol=1e-12)
@@ -85,6 +91,25 @@ def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path):
     line = result.fields("contact")
     assert np.allclose(line.point_data["pressure"], pressure, rtol=1e-12)
     assert np.abs(line.point_data["gap"]).max() <= 1e-14
+
+
+def test_the_tilted_patch_as_pyvista_datasets(tmp_path):
+    """Result.grid hands pyvista the body's triangles and fields: sampled along a line across each
+    body, the von Mises stress is the patch's exact uniform value at every point the line meets,
+    and warped by u the body is the uniform compression of its points (u = −0.01 t (x, y))."""
+    result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final"})
+    p, h = result.params, result.history
+    stress = (2 * p["mu1"] + p["eta1"]) * 0.01 + p["E1"] / (1 - p["nu1"]) * 0.01 * h["zetaMin1"][-1] * p["T"]
+    for body in ("body1", "body2"):
+        grid = result.grid(body)
+        assert grid.n_cells == len(cell_field(result.fields(body), "vonMises"))  # triangles only
+        (x0, x1, y0, y1, _, _) = grid.bounds
+        line = grid.sample_over_line((x0, y0, 0), (x1, y1, 0), resolution=50)
+        met = line["vtkValidPointMask"].astype(bool)
+        assert met.sum() > 10 and np.allclose(line["vonMises"][met], stress, rtol=1e-12)
+        warped = grid.warp_by_vector("u", factor=1.0)
+        assert np.allclose(warped.points[:, :2], (1 - 0.01 * p["T"]) * grid.points[:, :2], rtol=0, atol=1e-6)
+    assert result.grid("contact").n_cells == len(result.fields("contact").cells[0].data)
 
 
 def test_the_tilted_patch_in_plane_strain_has_its_out_of_plane_stress(tmp_path):

@@ -1,4 +1,5 @@
-"""The Python example of README.md works as written (run from a folder with the scenes)."""
+"""The Python example of docs/usage.md works as written (run from a folder with the scenes), and
+every command README.md and docs/usage.md show is one the command line accepts."""
 import re
 import subprocess
 import sys
@@ -10,8 +11,11 @@ from orchestrate.freefem import REPO
 pytestmark = pytest.mark.runs
 
 
+USAGE = REPO / "docs" / "usage.md"
+
+
 def test_readme_python_example_runs(tmp_path):
-    readme = (REPO / "README.md").read_text()
+    readme = USAGE.read_text()
     example = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
     (tmp_path / "example.py").write_text(example)
     (tmp_path / "scenes").symlink_to(REPO / "scenes")
@@ -26,14 +30,14 @@ def test_readme_python_example_runs(tmp_path):
 
 @pytest.mark.unit
 def test_every_orchestrate_command_of_the_readme_is_one_the_cli_accepts():
-    """Each `python -m orchestrate ...` line of README.md's shell blocks parses with the command
-    line's own parser (commands, studies, options and their values), and each `make` target named
-    exists in the Makefile."""
+    """Each `python -m orchestrate ...` line of the shell blocks of README.md and docs/usage.md
+    parses with the command line's own parser (commands, studies, options and their values), and
+    each `make` target named exists in the Makefile."""
     import shlex
 
     from orchestrate.cli import parser
 
-    readme = (REPO / "README.md").read_text()
+    readme = (REPO / "README.md").read_text() + USAGE.read_text()
     lines = "\n".join(re.findall(r"```sh\n(.*?)```", readme, re.S)).replace("\\\n", " ").splitlines()
     commands = [shlex.split(line.split("#")[0])[3:] for line in lines if "-m orchestrate" in line]
     assert len(commands) >= 10
