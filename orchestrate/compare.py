@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
 
 QUANTITIES = ("errorV", "errorZeta", "errorBeta")
@@ -64,7 +65,15 @@ def common_states(a: Result, b: Result) -> list[tuple[Path, Path]]:
     return pairs
 
 
-def distances(run: Result, reference: Result, pairs: list[tuple[Path, Path]]) -> list[dict]:
+def instant_distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
+    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants
+    (their state files of those steps)."""
+    pairs = [tuple(folder / f"state_{j * steps // instants:04d}.txt"
+                   for folder, steps in ((run, run_steps), (reference, reference_steps))) for j in range(1, instants + 1)]
+    return pair_distances(load_result(run), load_result(reference), pairs)
+
+
+def pair_distances(run: Result, reference: Result, pairs: list[tuple[Path, Path]]) -> list[dict]:
     """errors.edp on pairs of state files (of `run`, of `reference`): one row per pair. The tool
     reads file names from its pairs file as words, so it runs in a scratch folder that links every
     file it needs under a plain name."""
@@ -205,7 +214,7 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     run, ref = (b, a) if finer else (a, b)
     nested = all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
     ordered = [(second, first) for first, second in pairs] if reference == "a" else pairs
-    rows = distances(run, ref, ordered)
+    rows = pair_distances(run, ref, ordered)
     return Comparison(a, b, reference, nested, rows, differing_parameters(a, b))
 
 
@@ -215,9 +224,7 @@ FILES = ("comparison.csv", "report.txt", "history.png")
 def write(comparison: Comparison, out: Path, dpi: int = 110, force: bool = False) -> None:
     """comparison.csv, report.txt and history.png (the two histories over each other) in `out`: a
     new folder, or with `force` one an earlier compare wrote (outputs.py)."""
-    from orchestrate.outputs import claim_folder, write_text
     from orchestrate.render import plot_history
-    from orchestrate.reports import write_csv
 
     claim_folder(out, NAME, FILES, force)
     write_csv(out / "comparison.csv", comparison.rows, ["t", *QUANTITIES, *NORMS.values()])
@@ -231,8 +238,6 @@ NAME, HELP = "compare", "differences of two runs in the model's norms, and their
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.outputs import add_force_argument
-
     parser.add_argument("run_a", metavar="RUN_A", help="a run folder (with state files: output.fields \"state\")")
     parser.add_argument("run_b", metavar="RUN_B", help="another run of the same bodies")
     parser.add_argument("--out", help="a new folder for comparison.csv, report.txt and history.png "
@@ -241,8 +246,6 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    from orchestrate.outputs import refuse_folder
-
     out = Path(options.out or f"compare-{Path(options.run_a).resolve().name}-{Path(options.run_b).resolve().name}")
     refuse_folder(out, NAME, options.force)  # before the comparison, which takes a FreeFem++ run
     comparison = compare(options.run_a, options.run_b)

@@ -38,6 +38,21 @@ PARTS = ("body1", "body2", "contact")
 BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
 
 
+STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
+
+
+def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
+    """A state_NNNN.txt file (edp/lib/output.idp): t, then each array as its length and values."""
+    tokens = Path(path).read_text().split()
+    state: dict[str, np.ndarray | float] = {"t": float(tokens[0])}
+    position = 1
+    for name in STATE_ARRAYS:
+        length = int(tokens[position])
+        state[name] = np.array(tokens[position + 1: position + 1 + length], dtype=float)
+        position += 1 + length
+    return state
+
+
 class IncompleteRun(RuntimeError):
     """A run folder whose files are missing, cut short or changed since the run finished (a full
     disk or a file-size limit cuts files short without FreeFEM noticing)."""
@@ -140,8 +155,6 @@ def _check_vtu(path: Path, run: dict) -> None:
 
 
 def _check_state(path: Path, run: dict) -> None:
-    from orchestrate.results import STATE_ARRAYS, read_state
-
     try:
         state = read_state(path)
     except (ValueError, IndexError):

@@ -19,6 +19,7 @@ written and a link by that name is replaced, not followed.
 """
 from __future__ import annotations
 
+import csv
 import json
 import os
 import secrets
@@ -55,6 +56,15 @@ def created(path: Path, mode: str = "w", newline: str | None = None):
 def write_text(path: Path, text: str) -> None:
     with created(path) as handle:
         handle.write(text)
+
+
+def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
+    """A table with the given columns (default: the first row's keys), other keys ignored; written
+    whole or not at all."""
+    with created(path, newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]), extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
 
 
 def write_figure(figure, path: Path, **options) -> None:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from pydantic import Field
 
+from orchestrate.expr import number_code
 from orchestrate.freefem import REPO
 
 SOURCE = REPO / "edp" / "lib" / "parameters.toml"
@@ -92,6 +93,7 @@ def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict]]:
 
 
 PARAMETERS, SCHEMES = load()
+ORDER = {name: scheme["order"] for name, scheme in SCHEMES.items()}  # each scheme's order in k
 
 
 def field(name: str, **extra):
@@ -117,8 +119,6 @@ def driver_values(scene_data: dict) -> dict[str, float | int | str]:
     """A scene's values (its JSON dump) under the driver's names, for every table row with a
     scene key: flags as 0/1, lists (output times, field groups) as comma-separated text; a real
     given as an expression of x, y (ζ⁰, β⁰) is not a value of the driver's."""
-    from orchestrate.expr import number_code
-
     values = {}
     for parameter in PARAMETERS.values():
         if parameter.scene == "-":

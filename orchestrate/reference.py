@@ -15,7 +15,11 @@ from annotated_types import Ge, Gt, Le, Lt, MaxLen, MinLen
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
+from orchestrate import scene
 from orchestrate.freefem import REPO
+from orchestrate.mesh import geo_constants
+from orchestrate.outputs import add_force_argument, refuse_file, write_text
+from orchestrate.parameters import PARAMETERS, generated
 
 NAME, HELP = ("reference", "write docs/scene-format.md, the scene format's reference, from the schema, and the files "
               "generated from edp/lib/parameters.toml (docs/parameters.md, edp/lib/parameterTable.idp, edp/lib/schemes.idp; "
@@ -89,8 +93,6 @@ def submodel(annotation) -> type[BaseModel] | None:
 
 def table_row(key: str):
     """The parameter-table row of a scene key (bodyN.material.E: the body row E), or None."""
-    from orchestrate.parameters import PARAMETERS
-
     for parameter in PARAMETERS.values():
         if parameter.scene != "-" and key == ("bodyN." if parameter.scope == "body" else "") + parameter.scene:
             return parameter
@@ -139,8 +141,6 @@ RULES = """## What else a scene must satisfy
 
 def mesh_sources() -> list[str]:
     """Each gmsh source of meshes/: its constants (mesh.n, mesh.parameters) and its header comment."""
-    from orchestrate.mesh import geo_constants
-
     lines = ["## The gmsh sources in meshes/", ""]
     for path in sorted((REPO / "meshes").glob("*.geo")):
         header = []
@@ -154,8 +154,6 @@ def mesh_sources() -> list[str]:
 
 
 def page() -> str:
-    from orchestrate import scene
-
     body = rows(scene.Body, "bodyN.")
     run = [line for line in rows(scene.Scene, "") if not line.startswith(("| `body1.", "| `body2."))]
     boundary = []
@@ -198,17 +196,12 @@ def page() -> str:
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.outputs import add_force_argument
-
     parser.add_argument("--out", default=str(PAGE), help=f"where to write it (default {PAGE.relative_to(REPO)}); an "
                                                          "existing file is replaced only with --force")
     add_force_argument(parser, NAME, single_file=True)
 
 
 def command(options) -> int:
-    from orchestrate.outputs import refuse_file, write_text
-    from orchestrate.parameters import generated
-
     target = Path(options.out)
     pages = {target: page(), **(generated() if target.resolve() == PAGE else {})}
     for target in pages:

@@ -1,4 +1,5 @@
-"""Reading what a solver run wrote: history.csv, params_used.json and the VTK files."""
+"""Reading what a solver run wrote: history.csv, params_used.json and the VTK files, through the
+file formats and checks of manifest.py (which knows nothing of this module)."""
 from __future__ import annotations
 
 import json
@@ -12,9 +13,8 @@ import meshio
 import numpy as np
 
 from orchestrate.freefem import REPO
-from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, verify_manifest
-
-PARTS = ("body1", "body2", "contact")
+from orchestrate.manifest import (FACTS, MANIFEST, PARTS, STATE_ARRAYS, IncompleteRun, check_files,  # noqa: F401
+                                  read_state, verify_manifest)
 
 
 @dataclass(frozen=True)
@@ -71,12 +71,6 @@ class Result:
                                 f"{' or '.join(str(path.parent) for path in candidates)}: run compare from the folder "
                                 "FreeFem++ ran in")
 
-    def compare(self, other: "Result"):
-        """The distances to another run in the model's norms (orchestrate/compare.py)."""
-        from orchestrate.compare import compare
-
-        return compare(self, other)
-
     def fields(self, part: str, time: float | None = None) -> meshio.Mesh:
         """The mesh and fields of one part ("body1", "body2", "contact") at an output time
         (default: the last one written)."""
@@ -102,21 +96,6 @@ class Result:
         if part != "contact":  # the labelled boundary edges carry no field of the body
             grid = grid.extract_cells_by_type(pyvista.CellType.TRIANGLE)
         return grid
-
-
-STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
-
-
-def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
-    """A state_NNNN.txt file (edp/lib/output.idp): t, then each array as its length and values."""
-    tokens = Path(path).read_text().split()
-    state: dict[str, np.ndarray | float] = {"t": float(tokens[0])}
-    position = 1
-    for name in STATE_ARRAYS:
-        length = int(tokens[position])
-        state[name] = np.array(tokens[position + 1: position + 1 + length], dtype=float)
-        position += 1 + length
-    return state
 
 
 def load_result(folder: str | Path) -> Result:

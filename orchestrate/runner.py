@@ -38,12 +38,14 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate import mesh as meshing
+from orchestrate.arguments import parse_assignments
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
 from orchestrate.identity import solver_identity
 from orchestrate.manifest import FACTS, MANIFEST, IncompleteRun, check_files, facts, is_run_entry, write_manifest
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
+from orchestrate.steps import StepsError, choose_steps
 
 NAME_MAX, PATH_MAX = 255, 4096  # bytes in one path component, and in a whole path, on Linux
 SUFFIXES = (".partial", ".failed", ".replaced")  # the run's work folders beside <out>
@@ -490,11 +492,9 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
     if restart and plan_file.is_file():
         plan = json.loads(plan_file.read_text())
     else:
-        from orchestrate.steps import StepsError, choose_steps
-
         bar.phase("choosing N (pilot runs)")
         try:
-            plan = choose_steps(scene, folder / "pilots", mesh_cache, trust_geo)
+            plan = choose_steps(scene, folder / "pilots", run, mesh_cache, trust_geo)
         except StepsError as error:
             raise SceneError(str(error)) from None
         plan_file.write_text(json.dumps(plan, indent=1) + "\n")
@@ -651,8 +651,6 @@ def check_against(result: Result, path: Path, expected: dict) -> int:
 
 def command(options) -> int:
     import sys
-
-    from orchestrate.cli import parse_assignments
 
     overrides = parse_assignments(options.set, "--set")
     if options.allow_unstable:

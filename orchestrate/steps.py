@@ -10,6 +10,9 @@ scheme's order) (a lower observed order gives more steps, never fewer). N_a is t
 [0.8, 1.3] times the scheme's (else the pilots are not yet asymptotic and N_a is doubled). Errors
 are relative to ‖u(T)‖_V. It is an estimate on coarser meshes, not a bound: the run records it
 (steps.json) next to the N it chose.
+
+The pilots are runs: the functions that make them take the runner's `run` as an argument
+(runner.py passes its own), so that this module, which the runner uses, imports no runner.
 """
 from __future__ import annotations
 
@@ -18,9 +21,10 @@ import math
 import shutil
 from pathlib import Path
 
-from orchestrate.parameters import PARAMETERS, SCHEMES
-
-ORDER = {name: scheme["order"] for name, scheme in SCHEMES.items()}  # in k (edp/lib/parameters.toml)
+from orchestrate.compare import instant_distances
+from orchestrate.freefem import SolverError
+from orchestrate.mesh import MeshError
+from orchestrate.parameters import ORDER, PARAMETERS
 FIRST_PILOT, MOST_DOUBLINGS = 10, 10
 STEP_FAILURES = (3, 4, 5)  # exits a smaller step can cure: a bound refused, a loop or an invariant broke
 ASYMPTOTIC = (0.8, 1.3)  # observed order / the scheme's, for pilots in their asymptotic range
@@ -45,13 +49,10 @@ def pilot_overrides(scene, steps: int) -> dict:
     return overrides
 
 
-def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None, trust_geo: bool = False) -> Path | str:
-    """A pilot run at N = steps into `folder`, or why it did not run when a step bound refused N
-    or the run broke down at it (a smaller step may not); any other failure is the scene's and
-    ends the search."""
-    from orchestrate.mesh import MeshError
-    from orchestrate.runner import SolverError, run
-
+def pilot(scene, steps: int, folder: Path, run, mesh_cache: Path | None, trust_geo: bool = False) -> Path | str:
+    """A pilot run at N = steps into `folder` (by `run`, the runner's), or why it did not run when
+    a step bound refused N or the run broke down at it (a smaller step may not); any other failure
+    is the scene's and ends the search."""
     manual = scene.model_copy(update={"time": scene.time.model_copy(update={"N": steps, "targetError": None})})
     overrides = pilot_overrides(scene, steps)
     try:
@@ -68,23 +69,21 @@ def pilot(scene, steps: int, folder: Path, mesh_cache: Path | None, trust_geo: b
 
 
 def relative_distance(first: Path, second: Path, first_steps: int, second_steps: int) -> float:
-    from orchestrate.convergence import distances
-
-    row = distances(first, second, first_steps, second_steps, 1)[0]
+    row = instant_distances(first, second, first_steps, second_steps, 1)[0]
     return row["errorV"] / row["normV"] if row["normV"] > 0 else 0.0
 
 
-def time_error_model(scene, work: Path, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
-    """The pilots of a scene (time.scheme, time.T and the meshes one level coarser than its own):
-    the N_a they settled on, the order used and the finest pilot's error (steps 1 and 2 of the
-    rule). Pilot folders are made under `work` and removed."""
+def time_error_model(scene, work: Path, run, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
+    """The pilots of a scene (time.scheme, time.T and the meshes one level coarser than its own),
+    made by `run` (the runner's): the N_a they settled on, the order used and the finest pilot's
+    error (steps 1 and 2 of the rule). Pilot folders are made under `work` and removed."""
     order = ORDER[scene.time.scheme]
     work.mkdir(parents=True, exist_ok=True)
     folders: dict[int, Path | str] = {}
 
     def ran(steps: int) -> bool:
         if steps not in folders:
-            folders[steps] = pilot(scene, steps, work / f"N{steps}", mesh_cache, trust_geo)
+            folders[steps] = pilot(scene, steps, work / f"N{steps}", run, mesh_cache, trust_geo)
         return isinstance(folders[steps], Path)
 
     pilots = []
@@ -129,9 +128,10 @@ def steps_for(model: dict, target: float) -> tuple[int, float]:
     return chosen, error_at(model, chosen)
 
 
-def choose_steps(scene, work: Path, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
-    """The plan for a scene with time.N = "auto": its N and how it was found (steps.json)."""
-    model = time_error_model(scene, work, mesh_cache, trust_geo)
+def choose_steps(scene, work: Path, run, mesh_cache: Path | None = None, trust_geo: bool = False) -> dict:
+    """The plan for a scene with time.N = "auto": its N and how it was found (steps.json); the
+    pilots made by `run` (the runner's)."""
+    model = time_error_model(scene, work, run, mesh_cache, trust_geo)
     chosen, estimated = steps_for(model, scene.time.targetError)
     most = int(PARAMETERS["N"].bounds["le"])
     if chosen > most:

@@ -24,10 +24,13 @@ import re
 import tomllib
 from pathlib import Path
 
-from orchestrate.cli import split_assignment
+from orchestrate.arguments import parse_assignments, positive, split_assignment
 from orchestrate.freefem import InputError
 from orchestrate.manifest import IncompleteRun, verify_manifest
-from orchestrate.reports import write_csv
+from orchestrate.outputs import claim_growing_folder, write_csv
+from orchestrate.parameters import scene_value
+from orchestrate.progress import counter, wanted
+from orchestrate.runner import SUFFIXES, add_trust_geo, inputs_of, run, signals_as_interrupt
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
 
 FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
@@ -187,8 +190,6 @@ def folder_name(assignment: dict) -> str:
 
 def run_one(scene_data: dict, folder: str, trust_geo: bool = False) -> dict:
     """Task of a worker: one run, never raising (its failure is a row of sweep.csv)."""
-    from orchestrate.runner import run
-
     try:
         run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False, trust_geo=trust_geo)
     except Exception as error:  # a failed run is data for the sweep, not the end of it
@@ -243,8 +244,6 @@ def resolved_values(scene: Scene, assignment: dict, fields: dict[str, str]) -> d
     """The assignment's values as the validated scene holds them (1 for a real is 1.0), under the
     keys as written (`fields`: each key by index), so that a folder is named by what runs, however
     the value was written."""
-    from orchestrate.parameters import scene_value
-
     data = scene.model_dump(mode="json")
     return {key: scene_value(data, fields[key]) for key in assignment}
 
@@ -279,8 +278,6 @@ def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict 
               fields: dict[str, str] | None = None) -> tuple[list, list]:
     """`plan` for a list of assignments (the studies' ladders); `fields`: each key as the scene
     model spells it (grid_fields), the keys themselves when not given."""
-    from orchestrate.runner import inputs_of
-
     fields = fields or {key: key for assignment in assignments for key in assignment}
     rows, jobs, seen = [], [], {}
     for assignment in assignments:
@@ -312,11 +309,7 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
     are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label.
     progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py); yes:
     run more than MAX_UNASKED combinations; trust_geo: as for `run`."""
-    from orchestrate.progress import wanted
-
     shown = wanted(progress)
-    from orchestrate.outputs import claim_growing_folder
-    from orchestrate.runner import SUFFIXES
 
     out = Path(out).resolve()
     rows, jobs = plan(scene, grid, out, base, yes)
@@ -361,9 +354,6 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool, trust_ge
         return
     from dask.distributed import as_completed
 
-    from orchestrate.progress import counter
-    from orchestrate.runner import signals_as_interrupt
-
     client = make_client(workers, scheduler)
     own = list(client.run(os.getpid).values()) if client.cluster is not None else []
     interrupted = False
@@ -397,9 +387,6 @@ NAME, HELP = "sweep", "run the cartesian product of overrides on dask.distribute
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.cli import positive
-    from orchestrate.runner import add_trust_geo
-
     parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
     parser.add_argument("--grid", action="append", default=[], metavar="KEY=[V1, V2, ...]",
                         help="values of one scene key: a TOML list, which takes any value (expressions as strings "
@@ -429,8 +416,6 @@ def add_arguments(parser) -> None:
 
 def command(options) -> int:
     import sys
-
-    from orchestrate.cli import parse_assignments
 
     base = parse_assignments(options.set, "--set")
     grid = grid_of(options.grid, options.grid_file)

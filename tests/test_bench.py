@@ -6,7 +6,7 @@ import csv
 
 import pytest
 
-from orchestrate.bench import CHECK, N1_STEP, REFERENCE, SCHEMES, SEARCH_RUNS, bench, predicted_n1, wall_at
+from orchestrate.studies.bench import CHECK, N1_STEP, REFERENCE, SCHEMES, SEARCH_RUNS, bench, predicted_n1, wall_at
 
 pytestmark = pytest.mark.physics
 

@@ -113,7 +113,7 @@ def test_hertz_under_a_prescribed_force_agrees_with_the_prescribed_approach(tmp_
     free here), and the approach, the mean descent of the top, within 3 % of the 0.2 prescribed
     there."""
     from orchestrate.freefem import REPO
-    from orchestrate.hertz import RADIUS, measure
+    from orchestrate.studies.hertz import RADIUS, measure
 
     coarse = {"body1.mesh.n": 8, "body2.mesh.n": 8, "output.images": False}
     pressed = run(REPO / "scenes" / "hertz.toml", tmp_path / "approach", coarse)

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from orchestrate.gallery import SCENES as GALLERY
+from orchestrate.studies.gallery import SCENES as GALLERY
 from orchestrate.freefem import REPO
 from orchestrate.results import Result, cell_field, load_result
 from orchestrate.runner import run

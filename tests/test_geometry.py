@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from orchestrate.freefem import REPO
-from orchestrate.hertz import contact_line, hertz, measure
+from orchestrate.studies.hertz import contact_line, hertz, measure
 from orchestrate.results import read_state
 from orchestrate.runner import SolverError, run
 from orchestrate.scene import SceneError

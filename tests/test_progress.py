@@ -10,7 +10,7 @@ import pytest
 from orchestrate import run
 from orchestrate.freefem import REPO, InputError
 from orchestrate.progress import loop_pace, pace_note, wanted
-from orchestrate.stability import stability
+from orchestrate.studies.stability import stability
 
 pytestmark = pytest.mark.runs
 

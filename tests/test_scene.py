@@ -133,7 +133,7 @@ def test_a_boundary_condition_is_overridden_by_its_label_and_nothing_else_change
 
 
 def test_a_label_key_given_on_the_command_line_keeps_its_brackets():
-    from orchestrate.cli import parse_assignments
+    from orchestrate.arguments import parse_assignments
 
     assert parse_assignments(["body1.boundary[label=4].fy=-10*min(t, 1)", "title=a=b"], "--set") == \
         {"body1.boundary[label=4].fy": "-10*min(t, 1)", "title": "a=b"}

@@ -159,7 +159,7 @@ def test_bdf2_s_damage_source_level_is_its_own(tmp_path):
 def test_bdf2_s_glue_bound_is_enforced_with_its_own_matrix(tmp_path):
     """The shear scene's glue with p_τ large: bdf2 refuses k ρ_τ > 8/9, with ρ_τ of its own K."""
     from orchestrate import SolverError, run
-    from orchestrate.stability import GLUE_ALONE, GLUE_SCENE
+    from orchestrate.studies.stability import GLUE_ALONE, GLUE_SCENE
 
     overrides = {**GLUE_ALONE, "glue.pTau": 1e4, "time.N": 100, "time.scheme": "bdf2", "output.images": False}
     with pytest.raises(SolverError, match=r"bound 0.888889/rho_tau") as error:
@@ -193,7 +193,7 @@ def test_the_damage_source_bound_is_sharp_for_each_scheme(tmp_path, scheme, limi
     linearized, ζ − ζ_eq obeys the scheme's recursion for the rate λ_D/ζ_eq², stable up to
     k λ_D/ζ_eq² = 2 (euler) or 4/3 (bdf2's extrapolation, docs/model-choices.md). The bisection of
     the stability study observes the threshold within one step of that number."""
-    from orchestrate.stability import SOURCE, SOURCE_ALONE, ZETA_EQUILIBRIUM, threshold
+    from orchestrate.studies.stability import SOURCE, SOURCE_ALONE, ZETA_EQUILIBRIUM, threshold
 
     row = threshold(REPO / "scenes" / "paper.toml", {**SOURCE_ALONE, "time.scheme": scheme}, tmp_path / "run", SOURCE)
     exact = limit * ZETA_EQUILIBRIUM ** 2 / SOURCE_ALONE["body1.damage.lambdaD"]
@@ -204,7 +204,7 @@ def test_the_damage_source_bound_is_sharp_for_each_scheme(tmp_path, scheme, limi
 def test_bdf2_s_glue_bound_is_sharp(tmp_path):
     """The glue alone on soft bodies (the top glue mode carries almost no elasticity): bdf2's
     threshold is its 8/9 root condition, with ρ_τ of its own matrix, within 2 %."""
-    from orchestrate.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
+    from orchestrate.studies.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
 
     row = threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": 100.0, "time.scheme": "bdf2"}, tmp_path / "run", GLUE)
     assert abs(row["difference"]) < 0.02, row

@@ -82,26 +82,25 @@ def test_a_target_beyond_the_largest_n_says_the_n_it_needs_and_the_cap(monkeypat
     from orchestrate import steps
 
     model = {"firstPilot": 10, "finestPilotError": 1e-3, "orderUsed": 1.0, "schemeOrder": 1}
-    monkeypatch.setattr(steps, "time_error_model", lambda scene, work, cache, trust_geo=False: model)
+    monkeypatch.setattr(steps, "time_error_model", lambda scene, work, run, cache, trust_geo=False: model)
     scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-12})
     with pytest.raises(steps.StepsError, match=r"needs N = 40,000,000,000 steps, above the largest N, 10,000,000: "
                                                r"give time.targetError >= 4e-09"):
-        steps.choose_steps(scene, tmp_path)
+        steps.choose_steps(scene, tmp_path, run)
     scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-300})
     with pytest.raises(steps.StepsError, match="needs N = inf steps"):
-        steps.choose_steps(scene, tmp_path)
+        steps.choose_steps(scene, tmp_path, run)
 
 
 @pytest.mark.unit
-def test_a_pilot_mesh_that_cannot_be_made_is_said_to_be_the_rule_s(monkeypatch, tmp_path):
-    from orchestrate import runner, steps
+def test_a_pilot_mesh_that_cannot_be_made_is_said_to_be_the_rule_s(tmp_path):
+    from orchestrate import steps
     from orchestrate.mesh import MeshError
 
     def unmeshable(*args, **kwargs):
         raise MeshError("body1: gmsh made no triangles")
 
-    monkeypatch.setattr(runner, "run", unmeshable)
     scene = Scene.load(PAPER, {"time.N": "auto", "time.targetError": 1e-3, "body1.mesh.n": 24})
     with pytest.raises(steps.StepsError, match=r"one level coarser than the scene's \(body1.mesh.n = 12, "
                                                r"body2.mesh.n = 16\), and those cannot be meshed: body1: gmsh"):
-        steps.pilot(scene, 20, tmp_path / "pilot", None)
+        steps.pilot(scene, 20, tmp_path / "pilot", unmeshable, None)

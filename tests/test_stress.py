@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, gmsh_mesh, solve, solve_ok
-from orchestrate.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
+from orchestrate.studies.stability import GLUE, GLUE_ALONE, GLUE_SCENE, threshold
 
 pytestmark = pytest.mark.physics
 
@@ -126,7 +126,7 @@ def test_the_tangential_glue_bound_is_sharp(tmp_path):
 
 
 def test_the_stability_study_finds_the_glue_threshold(tmp_path):
-    """The study's bisection (orchestrate/stability.py, results/stability) on a soft glue: the
+    """The study's bisection (orchestrate/studies/stability.py, results/stability) on a soft glue: the
     threshold it observes brackets the predicted 2/ρ_τ within 5 % (docs/model.md §7, issue target)."""
     row = threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": 100.0}, tmp_path / "run", GLUE)
     assert row["stableK"] < row["unstableK"]

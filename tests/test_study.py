@@ -5,7 +5,7 @@ import csv
 import pytest
 
 from orchestrate.freefem import REPO
-from orchestrate.convergence import convergence, rates
+from orchestrate.studies.convergence import convergence, rates
 
 pytestmark = pytest.mark.physics
 
@@ -81,7 +81,7 @@ def test_every_option_of_every_command_says_its_default():
 
 @pytest.mark.unit
 def test_the_time_ladders_never_run_on_meshes_finer_than_the_space_ladder():
-    from orchestrate.convergence import time_mesh_level
+    from orchestrate.studies.convergence import time_mesh_level
     from orchestrate.freefem import InputError
 
     assert time_mesh_level(6, None) == 3 and time_mesh_level(3, None) == 2 and time_mesh_level(2, None) == 1

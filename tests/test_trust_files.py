@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from orchestrate import load_result, run
 from orchestrate.cli import main
+from orchestrate.compare import compare
 from orchestrate.freefem import MAIN, REPO, run_script
 from orchestrate.identity import program_files, solver_identity
 from orchestrate.manifest import IncompleteRun
@@ -104,7 +105,7 @@ def test_a_state_file_the_manifest_does_not_list_is_not_read(copy_of, two_runs):
     with pytest.raises(IncompleteRun, match="not in the manifest: state_0015.txt"):
         load_result(folder)
     assert "state_0015.txt" not in Result(folder).files
-    rows = Result(folder).compare(Result(two_runs[1])).rows
+    rows = compare(Result(folder), Result(two_runs[1])).rows
     assert [row["t"] for row in rows] == pytest.approx([0.25, 0.5, 1.0])
 
 

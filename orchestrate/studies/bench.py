@@ -49,17 +49,19 @@ from pathlib import Path
 import numpy as np
 from matplotlib.ticker import FuncFormatter
 
-from orchestrate.convergence import distances
+from orchestrate.arguments import at_least_two
+from orchestrate.compare import instant_distances
 from orchestrate.freefem import REPO, SolverError, run_script
 from orchestrate.manifest import facts
 from orchestrate.mesh import forget_whole_files
-from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_text
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_csv, write_text
+from orchestrate.parameters import ORDER
 from orchestrate.plots import log_axes, pyplot, save
-from orchestrate.reports import bench_report, write_csv
 from orchestrate.results import load_result
 from orchestrate.runner import run
 from orchestrate.scene import Scene
-from orchestrate.steps import ORDER, steps_for, time_error_model
+from orchestrate.steps import steps_for, time_error_model
+from orchestrate.studies.reports import bench_report
 
 SCHEMES = tuple(ORDER)
 FAMILIES = {"uniform": REPO / "scenes" / "paper.toml", "graded": REPO / "scenes" / "paper_graded.toml"}
@@ -155,7 +157,7 @@ def stable_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
 def final_distance(run_folder: Path, reference: Path) -> float:
     """‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V."""
     steps = [load_result(folder).params["N"] for folder in (run_folder, reference)]
-    row = distances(run_folder, reference, steps[0], steps[1], 1)[0]
+    row = instant_distances(run_folder, reference, steps[0], steps[1], 1)[0]
     return row["errorV"] / row["normV"]
 
 
@@ -175,7 +177,7 @@ def error_models(scratch: Path) -> dict[str, dict]:
     models = {}
     for scheme in SCHEMES:
         scene = Scene.load(FAMILIES["uniform"], {**mesh_level("uniform", 1), "time.scheme": scheme})
-        models[scheme] = time_error_model(scene, scratch / "pilots" / scheme, scratch / "meshes")
+        models[scheme] = time_error_model(scene, scratch / "pilots" / scheme, run, scratch / "meshes")
     return models
 
 
@@ -454,8 +456,6 @@ def percentages(text: str) -> tuple[float, ...]:
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.cli import at_least_two
-
     parser.add_argument("--levels", type=at_least_two, default=5,
                         help="measured graded levels (default 5: h1 = 6/6 ... 6/96); the reference is the graded "
                              "level two finer")

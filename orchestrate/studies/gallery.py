@@ -5,7 +5,9 @@ import sys
 from pathlib import Path
 
 from orchestrate.freefem import REPO
+from orchestrate.runner import refuse_existing, run
 from orchestrate.scene import SceneError
+from orchestrate.studies.hertz import gallery_figures
 
 SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad", "hertz", "punch", "precrack")
 
@@ -20,8 +22,6 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    from orchestrate.runner import refuse_existing, run
-
     unknown = [name for name in options.names if name not in SCENES]
     if unknown:
         raise SceneError(f"no gallery scene {', '.join(unknown)} (the gallery: {', '.join(SCENES)})")
@@ -31,7 +31,6 @@ def command(options) -> int:
     for name, folder in folders.items():
         result = run(REPO / "scenes" / f"{name}.toml", folder, force=options.force, progress=sys.stderr.isatty())
         if name == "hertz":  # its comparison with the analytic solution, as in results/hertz
-            from orchestrate.hertz import gallery_figures
 
             gallery_figures(result, result.folder)
         print(f"{name}: {result.folder}")

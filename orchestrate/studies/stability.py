@@ -12,13 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, SolverError
 from orchestrate.manifest import read_json
-from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_text
+from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_csv, write_text
+from orchestrate.parameters import ORDER
 from orchestrate.plots import log_axes, pyplot, save
-from orchestrate.reports import stability_report, write_csv
+from orchestrate.progress import counter, wanted
+from orchestrate.runner import run
 from orchestrate.scene import Scene
-from orchestrate.steps import ORDER
+from orchestrate.studies.reports import stability_report
 
 GLUE_SCENE = REPO / "scenes" / "shear.toml"
 # The shear scene with γ_ν = 0 (the glue never debonds, so p_τ β R*(slip) is a linear spring),
@@ -69,9 +71,6 @@ def grows(history, fact: str) -> bool:
 
 def is_unstable(scene_path, overrides: dict, folder: Path, fact: str, progress: bool) -> bool:
     """Unstable: the run stops on divergence (exit 5), or it grows (`grows`)."""
-    from orchestrate.freefem import SolverError
-    from orchestrate.runner import run
-
     try:
         result = run(scene_path, folder, overrides, force=True, progress=progress)
     except SolverError as error:
@@ -132,9 +131,6 @@ def implicit_rows(scene_path, base: dict, E: float, eta: float, folder: Path, pr
     whether the run passes the driver's divergence and chatter checks, its largest growth of ‖u‖_V
     in one step once the loads are held, the ζ it reaches, and ‖u(T)‖_V against bdf2 at k*/16,
     checked by the paper's scheme at k*/16 (referenceCheck: their relative difference)."""
-    from orchestrate.freefem import SolverError
-    from orchestrate.runner import run
-
     quiet = {**base, "body1.material.E": E, "body2.material.E": E, "output.times": "none", "output.images": False}
     run(scene_path, folder, {**quiet, "time.T": 1.0, "time.N": 1000, "solver.allowUnstable": True}, force=True,
         progress=progress)
@@ -209,8 +205,6 @@ def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_ST
     each run's bar, True, False or "auto" (where one can be seen: progress.py). `out`: a new
     folder, or with `force` one an earlier study wrote (outputs.py)."""
     from functools import partial
-
-    from orchestrate.progress import counter, wanted
 
     shown = wanted(progress)
     out = Path(out).resolve()

@@ -33,7 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrate.freefem import REPO
 from orchestrate.outputs import add_force_argument, claim_folder, created, refuse_folder, write_figure, write_text
+from orchestrate.progress import wanted
+from orchestrate.results import cell_field
+from orchestrate.runner import run
 
 NAME, HELP = "hertz", "Hertz line contact against the analytic solution, over mesh levels"
 FILES = ("hertz.csv", "README.md", "pressure.png", "vonmises.png")
@@ -100,10 +104,6 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | 
     """The cases over the mesh levels, into hertz.csv, README.md and the figures in `out` (a new
     folder, or with `force` one this study wrote: outputs.py); progress: each run's bar, True,
     False or "auto" (where one can be seen: progress.py)."""
-    from orchestrate.freefem import REPO
-    from orchestrate.progress import wanted
-    from orchestrate.runner import run
-
     shown = wanted(progress)
     out = Path(out)
     refuse_folder(out, f"study {NAME}", force)  # now, not after the runs
@@ -217,8 +217,6 @@ def plot_von_mises(path: Path, result) -> None:
     part of it outside the contact)."""
     import matplotlib.pyplot as plt
     import matplotlib.tri as mtri
-
-    from orchestrate.results import cell_field
 
     figure, axis = plt.subplots(figsize=(6.4, 4.0), constrained_layout=True)
     meshes = [result.fields(body) for body in ("body1", "body2")]

@@ -3,20 +3,7 @@ convergence study, the stability study and the benchmark (results/convergence, r
 results/bench). The measuring is in convergence.py, stability.py and bench.py."""
 from __future__ import annotations
 
-import csv
-from pathlib import Path
-
-from orchestrate.outputs import created
-from orchestrate.steps import ORDER
-
-
-def write_csv(path: Path, rows: list[dict], columns: list[str] | None = None) -> None:
-    """A table with the given columns (default: the first row's keys), other keys ignored; written
-    whole or not at all (outputs.created)."""
-    with created(path, newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]), extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+from orchestrate.parameters import ORDER
 
 
 def number(value) -> str:

@@ -25,14 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrate.compare import distances as state_distances
+from orchestrate.arguments import at_least_two, choices_list, positive
+from orchestrate.compare import instant_distances
+from orchestrate.freefem import InputError
 from orchestrate.manifest import facts
-from orchestrate.outputs import add_force_argument, claim_folder, write_text
+from orchestrate.outputs import add_force_argument, claim_folder, write_csv, write_text
+from orchestrate.parameters import PARAMETERS
 from orchestrate.plots import pyplot, save
 from orchestrate.progress import wanted
-from orchestrate.reports import QUANTITIES, LABELS, convergence_report, expected_order, write_csv
 from orchestrate.results import load_result
 from orchestrate.scene import Scene
+from orchestrate.studies.reports import QUANTITIES, LABELS, convergence_report, expected_order
 from orchestrate.sweep import plan_runs, run_jobs
 
 KINDS = ("lockstep", "time", "space")
@@ -79,13 +82,6 @@ def ladders(n1: int, n2: int, steps: int, count: int, time_mesh_level: int, spac
     return studied
 
 
-def distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
-    """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants."""
-    pairs = [tuple(folder / f"state_{j * steps // instants:04d}.txt"
-                   for folder, steps in ((run, run_steps), (reference, reference_steps))) for j in range(1, instants + 1)]
-    return state_distances(load_result(run), load_result(reference), pairs)
-
-
 def slope(sizes, errors) -> float:
     """Least-squares slope of log(error) against log(size)."""
     return float(np.polyfit(np.log(sizes), np.log(errors), 1)[0])
@@ -107,14 +103,14 @@ def measure(ladder: Ladder, folders: list[Path | None], errors: list[str], refer
         if folders[level] == reference:
             continue
         reference_steps = ladder.reference["time.N"] if ladder.reference else ladder.step(-1)
-        to_reference = distances(folders[level], reference, ladder.step(level), reference_steps, ladder.instants)
+        to_reference = instant_distances(folders[level], reference, ladder.step(level), reference_steps, ladder.instants)
         norm = max(r["normV"] for r in to_reference)
         for quantity in QUANTITIES:
             row[quantity] = max(r[quantity] for r in to_reference)
         row["relativeErrorV"] = row["errorV"] / norm
         row["relativeErrorVAtT"] = to_reference[-1]["errorV"] / to_reference[-1]["normV"]
         if level + 1 < len(folders) and folders[level + 1] is not None:
-            to_next = distances(folders[level], folders[level + 1], ladder.step(level), ladder.step(level + 1),
+            to_next = instant_distances(folders[level], folders[level + 1], ladder.step(level), ladder.step(level + 1),
                                 ladder.instants)
             for quantity in QUANTITIES:
                 row["next" + quantity[len("error"):]] = max(r[quantity] for r in to_next)
@@ -225,9 +221,6 @@ NAME, HELP = "convergence", "lock-step, time-only and space-only ladders, errors
 
 
 def add_arguments(parser) -> None:
-    from orchestrate.cli import at_least_two, choices_list, positive
-    from orchestrate.parameters import PARAMETERS
-
     parser.add_argument("scene", help="a scene whose meshes are nested under n -> 2n, e.g. scenes/paper.toml")
     parser.add_argument("--ladders", type=choices_list(KINDS), default=list(KINDS),
                         help="which ladders, comma-separated (default: lockstep,time,space)")
@@ -253,8 +246,6 @@ def add_arguments(parser) -> None:
 def time_mesh_level(levels: int, given: int | None) -> int:
     """The time ladders' mesh level: 3 by default, never finer than the space ladder's finest
     (levels − 1), whose meshes the study's space errors are measured on."""
-    from orchestrate.freefem import InputError
-
     if given is None:
         return min(3, levels - 1)
     if not 0 <= given <= levels - 1:
