@@ -3,12 +3,13 @@
 SHELL := /bin/bash
 VENV := .venv
 PYTHON := $(VENV)/bin/python
-# FreeFEM with its plugins, gmsh, the EGL/Mesa pieces pyvista renders through off screen, the
-# single-threaded OpenBLAS (CHOLMOD's back-substitutions 1.5-2x faster than with the reference
+# FreeFEM with its plugins, gmsh (its package brings the libGL and libGLU the gmsh Python module
+# loads; nothing of the project renders with EGL: images are matplotlib's Agg, and pyvista only
+# filters, which loads no GL library), the single-threaded OpenBLAS (CHOLMOD's back-substitutions 1.5-2x faster than with the reference
 # BLAS; one thread keeps runs deterministic and leaves the cores to parallel runs), and what
 # builds the project's own FreeFEM plugins (ff-c++ with FreeFEM's headers, SuiteSparse's for
 # factorsplit, and g++).
-APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev libsuitesparse-dev g++ gmsh libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libopenblas0-serial
+APT_PACKAGES := freefem++ libfreefem++ libfreefem++-dev libsuitesparse-dev g++ gmsh libopenblas0-serial
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: setup system-packages plugins paper test test-fast gallery
