@@ -23,6 +23,7 @@ import csv
 import json
 import os
 import secrets
+import stat
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -167,8 +168,9 @@ def claim_growing_folder(folder: Path, command: str, files, folders, work_suffix
     old = read_record(folder) if present else {"command": command, "files": [], "folders": []}
     if old is None or old["command"] != command:
         whose = "no orchestrate command recorded writing" if old is None else f"`{command_line(old['command'])}` wrote"
-        raise OutputError(f"{option} {folder} exists and holds files {whose} ({listed(present)}): choose a new or empty "
-                          f"folder, or one an earlier `{command_line(command)}` wrote")
+        raise OutputError(f"{option} {folder} exists and holds files {whose} ({listed(present)}; a folder of this "
+                          f"command holds its {RECORD}, which versions before it did not write): choose a new or "
+                          f"empty folder, or one an earlier `{command_line(command)}` recorded")
     folders = sorted({*old["folders"], *folders})
     own = {RECORD, *old["files"], *files, *folders, *(name + suffix for name in folders for suffix in work_suffixes)}
     foreign = {name for name in present - own
@@ -229,13 +231,17 @@ OPENING = 4096  # bytes of a page that hold its mark
 
 
 def holds_mark(path: Path, mark: str) -> bool:
+    """A regular file (never a link, a folder or a pipe, which a read would wait on) that holds
+    `mark` as a file of its kind does."""
     try:
-        descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+        descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
     except OSError:
         return False
+    status = os.fstat(descriptor)
+    if not stat.S_ISREG(status.st_mode) or status.st_size > LARGEST_OWN_FILE:
+        os.close(descriptor)
+        return False
     with os.fdopen(descriptor, "rb") as handle:
-        if os.fstat(handle.fileno()).st_size > LARGEST_OWN_FILE:
-            return False
         data = handle.read()
     signature = SIGNATURES.get(path.suffix.lower())
     if signature is None:

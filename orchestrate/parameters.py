@@ -89,7 +89,27 @@ def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict]]:
     for name, scheme in schemes.items():
         if set(scheme) != {*SCHEME_KEYS, "meaning"}:
             raise ValueError(f"{path}: scheme {name} has {sorted(scheme)}, not {sorted({*SCHEME_KEYS, 'meaning'})}")
+        for key, kind in SCHEME_KEYS.items():
+            length = len(scheme[key]) if kind == "real[int]" and isinstance(scheme[key], list) else 1
+            if not SCHEME_CHECKS[kind](scheme[key]) or length != LENGTHS.get(key, 1):
+                raise ValueError(f"{path}: scheme {name}: {key} = {scheme[key]!r} is not {SCHEME_SHAPES.get(key, kind)}")
     return rows, schemes
+
+
+def finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+# What the driver can take of each coefficient (schemes.idp declares real[int] of these lengths;
+# the libraries know one- and two-level schemes).
+SCHEME_SHAPES = {"levels": "1 or 2", "rateWeights": "3 numbers", "extrapolation": "2 numbers", "order": "1 or 2"}
+LENGTHS = {"rateWeights": 3, "extrapolation": 2}
+SCHEME_CHECKS = {
+    "int": lambda value: isinstance(value, int) and not isinstance(value, bool) and value in (1, 2),
+    "real": lambda value: finite(value) and value >= 0,
+    "bool": lambda value: isinstance(value, bool),
+    "real[int]": lambda value: isinstance(value, list) and all(finite(v) for v in value),
+}
 
 
 PARAMETERS, SCHEMES = load()

@@ -18,7 +18,7 @@ from pydantic_core import PydanticUndefined
 from orchestrate import scene
 from orchestrate.freefem import REPO
 from orchestrate.mesh import geo_constants
-from orchestrate.outputs import add_force_argument, refuse_file, write_text
+from orchestrate.outputs import refuse_file, write_text
 from orchestrate.parameters import PARAMETERS, generated
 
 NAME, HELP = ("reference", "write docs/scene-format.md, the scene format's reference, from the schema, and the files "
@@ -198,7 +198,10 @@ def page() -> str:
 def add_arguments(parser) -> None:
     parser.add_argument("--out", default=str(PAGE), help=f"where to write it (default {PAGE.relative_to(REPO)}); an "
                                                          "existing file is replaced only with --force")
-    add_force_argument(parser, NAME, single_file=True)
+    parser.add_argument("--force", action="store_true",
+                        help="replace the --out page, and with the default --out the three files generated from "
+                             "edp/lib/parameters.toml, each only if this program wrote it (it holds the generated "
+                             "mark); without it an existing file is refused")
 
 
 def command(options) -> int:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import hashlib
 import signal
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -73,3 +74,25 @@ def pytest_collection_modifyitems(items):
     untiered = [item.nodeid for item in items if not any(item.get_closest_marker(tier) for tier in TIERS)]
     if untiered:
         raise pytest.UsageError(f"tests in no tier ({', '.join(TIERS)}): {', '.join(untiered[:5])}")
+
+
+# A `unit` test starts no solver and no mesher (make test-fast runs where neither is installed):
+# while one runs, starting FreeFem++ or gmsh from this process fails it.
+_UNIT_RUNNING = {"now": False}
+
+
+def _refuse_solver_in_unit_tests(event, args):
+    if _UNIT_RUNNING["now"] and event == "subprocess.Popen":
+        argv = args[1] if isinstance(args[1], (list, tuple)) else [args[1]]
+        if any(word in str(part) for part in argv for word in ("FreeFem++", "gmsh")):
+            raise RuntimeError(f"a unit test started {' '.join(map(str, argv))[:120]}: mark it with its tier, not unit")
+
+
+sys.addaudithook(_refuse_solver_in_unit_tests)
+
+
+@pytest.fixture(autouse=True)
+def _unit_tests_start_no_solver(request):
+    _UNIT_RUNNING["now"] = request.node.get_closest_marker("unit") is not None
+    yield
+    _UNIT_RUNNING["now"] = False

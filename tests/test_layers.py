@@ -1,7 +1,7 @@
 """The Python package in layers, with no circle (docs/architecture.md, "What may import what"):
-every import of an orchestrate module, at the top of a file or inside a function, is an edge, and
-the edges make no cycle; the studies are imported by the command line alone, the command line by
-no module, and a module imports only from its own layer or those below."""
+every import of an orchestrate module, at the top of a file or inside a function, absolute or
+relative, is an edge; the edges make no cycle; a module imports only from its own layer or those
+below; and the studies are imported by the command line alone."""
 from __future__ import annotations
 
 import ast
@@ -13,8 +13,8 @@ from orchestrate.freefem import REPO
 
 pytestmark = pytest.mark.unit
 
-PACKAGE = REPO / "orchestrate"
-# From the bottom up; a module may import from its own layer and those below (studies: any module).
+# From the bottom up; a module may import from its own layer and those below. "" is the package's
+# __init__, the API users import (`from orchestrate import run` is an import of it).
 LAYERS = [
     {"identity", "expr", "gmsh_mesher"},
     {"freefem"},
@@ -27,56 +27,61 @@ LAYERS = [
     {"sweep", "plot", "reference"},
     {"studies", "studies.convergence", "studies.stability", "studies.hertz", "studies.bench", "studies.reports",
      "studies.gallery"},
-    {"cli", "__main__", ""},  # "" is the package's __init__: the API users import
+    {"cli", "__main__", ""},
 ]
 LAYER = {module: depth for depth, layer in enumerate(LAYERS) for module in layer}
 
 
-def module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE).with_suffix("").parts
+def module_name(package: Path, path: Path) -> str:
+    parts = path.relative_to(package).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imports(path: Path) -> set[str]:
-    """The orchestrate modules a file imports, wherever the import statement stands."""
+def imports(package: Path, path: Path, modules: set[str]) -> set[str]:
+    """The orchestrate modules a file imports, wherever the statement stands ("" the package)."""
+    name = module_name(package, path)
+    here = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "orchestrate":
-            base = node.module.removeprefix("orchestrate").lstrip(".")
+        if isinstance(node, ast.ImportFrom):
+            if node.level:  # relative: from . / .. of this module's package
+                parts = here.split(".") if here else []
+                base = ".".join(parts[:len(parts) - (node.level - 1)] + ([node.module] if node.module else []))
+            elif node.module and node.module.split(".")[0] == "orchestrate":
+                base = node.module.removeprefix("orchestrate").lstrip(".")
+            else:
+                continue
             for alias in node.names:
-                name = f"{base}.{alias.name}".lstrip(".")
-                found.add(name if name in LAYER else base)
+                target = f"{base}.{alias.name}".lstrip(".")
+                found.add(target if target in modules else base)
         elif isinstance(node, ast.Import):
-            found |= {alias.name.removeprefix("orchestrate.") for alias in node.names
-                      if alias.name.startswith("orchestrate.")}
-    return found - {""}
+            found |= {alias.name.removeprefix("orchestrate").lstrip(".") for alias in node.names
+                      if alias.name.split(".")[0] == "orchestrate"}
+    return found - {name}
 
 
-def graph() -> dict[str, set[str]]:
-    return {module_name(path): imports(path) - {module_name(path)} for path in PACKAGE.rglob("*.py")}
+def graph(package: Path = REPO / "orchestrate") -> dict[str, set[str]]:
+    paths = list(package.rglob("*.py"))
+    modules = {module_name(package, path) for path in paths}
+    return {module_name(package, path): imports(package, path, modules) for path in paths}
 
 
-def test_every_module_has_a_layer():
-    assert sorted(set(graph()) - set(LAYER)) == []
+def upward(edges: dict[str, set[str]]) -> list[str]:
+    return sorted(f"{module or 'the package'} imports {target or 'the package'}" for module, targets in edges.items()
+                  for target in targets if LAYER[target] > LAYER[module])
 
 
-def test_each_import_goes_down_or_across_never_up():
-    upward = [f"{module} imports {target}" for module, targets in graph().items() for target in targets
-              if LAYER[target] > LAYER[module] and not (module.startswith("studies") and target.startswith("studies"))]
-    assert upward == []
-
-
-def test_no_import_circle():
-    edges = graph()
+def circle(edges: dict[str, set[str]]) -> list[str] | None:
+    """One import circle, as the modules along it, or None."""
     state: dict[str, int] = {}
 
-    def circle_from(module: str, path: list[str]) -> list[str] | None:
+    def walk(module: str, path: list[str]) -> list[str] | None:
         state[module] = 1
         for target in sorted(edges.get(module, ())):
             if state.get(target) == 1:
-                return path[path.index(target):] + [target] if target in path else [module, target]
+                return path[path.index(target):] + [target]
             if not state.get(target):
-                found = circle_from(target, path + [target])
+                found = walk(target, path + [target])
                 if found:
                     return found
         state[module] = 2
@@ -84,15 +89,43 @@ def test_no_import_circle():
 
     for module in sorted(edges):
         if not state.get(module):
-            assert circle_from(module, [module]) is None
+            found = walk(module, [module])
+            if found:
+                return found
+    return None
 
 
-def test_the_layer_check_sees_a_circle(tmp_path, monkeypatch):
-    """The check itself: a module importing one above it is reported (so an empty list means
-    something)."""
-    module = tmp_path / "orchestrate" / "scene.py"
-    module.parent.mkdir()
-    module.write_text("def f():\n    from orchestrate.runner import run\n")
-    monkeypatch.setattr(__import__(__name__), "PACKAGE", tmp_path / "orchestrate")
-    assert graph() == {"scene": {"runner"}}
-    assert LAYER["runner"] > LAYER["scene"]
+def test_every_module_has_a_layer():
+    assert sorted(set(graph()) - set(LAYER)) == []
+
+
+def test_each_import_goes_down_or_across_never_up():
+    assert upward(graph()) == []
+
+
+def test_no_import_circle():
+    assert circle(graph()) is None
+
+
+def test_only_the_command_line_imports_the_studies():
+    importers = {module for module, targets in graph().items() if not module.startswith("studies")
+                 and any(target.startswith("studies") for target in targets)}
+    assert importers <= {"cli"}
+
+
+def test_the_checks_see_an_upward_import_and_a_circle(tmp_path):
+    """The checks themselves, on a package made for them: a relative import up a layer, an import
+    of the package's API from below, and a circle between two modules of one layer are each
+    reported (so that the empty answers above mean something)."""
+    package = tmp_path / "orchestrate"
+    package.mkdir()
+    (package / "__init__.py").write_text("from orchestrate.runner import run\n")
+    (package / "scene.py").write_text("def f():\n    from .runner import run\n    from orchestrate import run\n")
+    (package / "runner.py").write_text("from orchestrate.sweep import sweep\n")
+    (package / "sweep.py").write_text("import orchestrate.plot\n")
+    (package / "plot.py").write_text("from . import sweep\n")
+    edges = graph(package)
+    assert edges["scene"] == {"runner", ""} and edges["plot"] == {"sweep"}
+    assert upward(edges) == ["runner imports sweep", "scene imports runner", "scene imports the package"]
+    found = circle(edges)
+    assert found[0] == found[-1] and set(found) == {"plot", "sweep"}

@@ -190,3 +190,17 @@ def test_run_force_replaces_a_run_folder_only_when_it_holds_nothing_else(tmp_pat
     code, err = cli("run", PAPER, "--out", folder, "--force")
     assert code == 1 and "also thesis.tex, which no run writes" in err, err
     assert sorted(os.listdir(folder)) == ["run.json", "thesis.tex"]
+
+
+def test_a_pipe_or_a_folder_named_as_an_image_is_foreign_and_never_read(tmp_path):
+    """Was: a named pipe called p.png in a sweep folder made `sweep` wait for ever on reading it,
+    and a folder called figs.png ended it with IsADirectoryError."""
+    from orchestrate.outputs import claim_growing_folder
+
+    folder = tmp_path / "sweep"
+    claim_growing_folder(folder, "sweep", ["sweep.csv"], ["a-1"], (".partial",))
+    os.mkfifo(folder / "p.png")
+    (folder / "figs.png").mkdir()
+    with pytest.raises(OutputError, match="also holds figs.png, p.png"):
+        claim_growing_folder(folder, "sweep", ["sweep.csv"], ["a-1"], (".partial",))
+

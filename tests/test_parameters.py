@@ -47,6 +47,22 @@ def test_no_library_names_a_scheme():
             assert not any(f'"{name}"' in text for name in SCHEMES), path
 
 
+@pytest.mark.parametrize("old, new, words", [
+    ("levels = 2", "levels = 3", "levels = 3 is not 1 or 2"),
+    ("rateWeights = [1.5, -2.0, 0.5]", "rateWeights = [1.5, -2.0]", "rateWeights = [1.5, -2.0] is not 3 numbers"),
+    ("elasticImplicit = true\nlevels = 2", 'elasticImplicit = "yes"\nlevels = 2', "elasticImplicit = 'yes' is not bool"),
+])
+@pytest.mark.unit
+def test_a_scheme_the_driver_cannot_take_is_refused_when_the_table_is_read(tmp_path, old, new, words):
+    from orchestrate.parameters import SOURCE, load
+
+    table = tmp_path / "parameters.toml"
+    assert old in SOURCE.read_text()
+    table.write_text(SOURCE.read_text().replace(old, new))
+    with pytest.raises(ValueError, match=words.replace("[", r"\[").replace("]", r"\]")):
+        load(table)
+
+
 @pytest.mark.unit
 def test_each_scheme_s_coefficients_are_consistent():
     """Facts of the schemes that hold independently of the code: the rate weights are exact on

@@ -445,11 +445,12 @@ def killed(tmp_path_factory):
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(kind=st.sampled_from(["drop", "repeat", "swap"]), where=st.integers(0, 10**6), reseal=st.booleans())
+@given(kind=st.sampled_from(["drop", "repeat", "swap", "nan", "word"]), where=st.integers(0, 10**6), reseal=st.booleans())
 def test_a_checkpoint_with_lines_removed_or_repeated_is_refused_or_gives_the_uninterrupted_run(
         tmp_path_factory, uninterrupted, killed, kind, where, reseal):
-    """Never a third thing: exit 3 with a message, or the files of the run never interrupted. Sealed
-    again, two value lines swapped are a checkpoint of another state that no check can tell from a
+    """Never a third thing: exit 3 with a message, or the files of the run never interrupted (a line
+    dropped, repeated, or with its last word made nan or a word; was: FreeFEM's Op_ReadKN, exit 8,
+    on a nan in the fingerprint or the .pvd count). Sealed again, two value lines swapped are a checkpoint of another state that no check can tell from a
     real one (the seal is a plain SHA-256, not a keyed one): left out."""
     assume(not (reseal and kind == "swap"))
     folder = tmp_path_factory.mktemp("case") / "run"
@@ -457,8 +458,10 @@ def test_a_checkpoint_with_lines_removed_or_repeated_is_refused_or_gives_the_uni
 
     def change(lines):
         j = 1 + where % (len(lines) - 2)
+        garbled = lines[j].rsplit(maxsplit=1)[0] + (" nan" if kind == "nan" else " x") if " " in lines[j].strip() else "x"
         return {"drop": lines[:j] + lines[j + 1:], "repeat": lines[:j + 1] + lines[j:],
-                "swap": lines[:j] + [lines[j + 1], lines[j]] + lines[j + 2:]}[kind]
+                "swap": lines[:j] + [lines[j + 1], lines[j]] + lines[j + 2:],
+                "nan": lines[:j] + [garbled] + lines[j + 1:], "word": lines[:j] + [garbled] + lines[j + 1:]}[kind]
 
     for checkpoint in folder.glob("checkpoint-?.txt"):
         if reseal:

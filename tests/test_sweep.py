@@ -68,14 +68,12 @@ def test_changed_inputs_are_run_again(first):
     assert rows[0]["status"] == "completed"
 
 
-@pytest.mark.unit
 def test_an_invalid_combination_is_recorded_without_running(tmp_path):
     rows = sweep(SCENE, {"time.N": [0, 20]}, tmp_path, {k: v for k, v in BASE.items() if k != "time.N"}, workers=1)
     assert rows[0]["status"] == "invalid" and "--grid time.N = 0" in rows[0]["error"]  # named as the user gave it
     assert rows[1]["status"] == "completed"
 
 
-@pytest.mark.unit
 def test_a_sweep_runs_on_an_existing_cluster_given_its_address(tmp_path):
     from dask.distributed import LocalCluster
 

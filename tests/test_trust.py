@@ -153,7 +153,6 @@ def test_the_driver_checks_a_hand_written_scene_s_labels(tmp_path):
 
 # --- 3. sweep folders never collide -------------------------------------------------------------
 
-@pytest.mark.unit
 def test_combinations_that_sanitize_alike_get_their_own_folders_and_a_swap_is_noticed(tmp_path):
     grid = {"body1.boundary.1.fy": ["(x<=3)*(-10*t)", "(x>=3)*(-10*t)"]}
     rows = sweep(PAPER, grid, tmp_path, COARSE, workers=1)
@@ -432,7 +431,6 @@ def test_a_run_folder_changed_after_the_run_is_not_trusted(tmp_path):
         load_result(result.folder)
 
 
-@pytest.mark.unit
 def test_a_sweep_with_an_invalid_row_runs_the_others(tmp_path):
     rows = sweep(PAPER, {"body1.boundary.1.fy": ["2" + "^2" * 900, "-10*t"]}, tmp_path, COARSE, workers=1)
     assert rows[0]["status"] == "invalid" and "nested deeper" in rows[0]["error"]

@@ -312,3 +312,29 @@ def test_check_against_a_file_that_is_no_summary_is_refused_before_the_run(tmp_p
     expected.write_text(content)
     assert main(["run", str(PAPER), "--out", str(tmp_path / "run"), "--check-against", str(expected)]) == 2
     assert not (tmp_path / "run").exists()
+
+
+def test_run_force_keeps_a_users_file_named_as_an_image(tmp_path, capsys):
+    """Was: an image name was taken for a run's own image whatever the file held, and deleted."""
+    folder = tmp_path / "run"
+    assert main(["run", str(PAPER), "--out", str(folder), "--set", "body1.mesh.n=6", "--set", "body2.mesh.n=8",
+                 "--set", "time.N=20", "--set", "output.images=false"]) == 0
+    (folder / "figure_3.png").write_text("the user's figure")
+    capsys.readouterr()
+    assert main(["run", str(PAPER), "--out", str(folder), "--force", "--set", "time.N=20"]) == 1
+    err = capsys.readouterr().err
+    assert "figure_3.png, which no run writes" in err, err
+    assert (folder / "figure_3.png").read_text() == "the user's figure"
+
+
+def test_a_refused_restart_leaves_the_results_in_its_output_folder(tmp_path):
+    """Was: -out was emptied of an earlier run's files before the checkpoint was checked, so a
+    restart refused for want of a checkpoint had deleted that run's history and fields."""
+    out, empty = tmp_path / "out", tmp_path / "empty"
+    empty.mkdir()
+    assert run_script(MAIN, [*DRIVER_RUN, "-out", out]).returncode == 0
+    written = ("history.csv", "solution.pvd", "state_0010.txt", "state_0020.txt", "body1_0020.vtu", "contact_0010.vtu")
+    before = {name: (out / name).read_bytes() for name in written}  # the set-up's files are written anew, as ever
+    refused = run_script(MAIN, [*DRIVER_RUN, "-restart", empty, "-out", out])
+    assert refused.returncode == 3 and "holds no whole checkpoint" in refused.error_line
+    assert {name: (out / name).read_bytes() for name in before} == before
