@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
-from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_csv, write_text
+from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
+
+NAME = "compare"  # the command, as its folders' made-by.json records it
 
 QUANTITIES = ("errorV", "errorZeta", "errorBeta")
 NORMS = {"errorV": "normV", "errorZeta": "normZeta", "errorBeta": "normBeta"}
@@ -230,26 +232,3 @@ def write(comparison: Comparison, out: Path, dpi: int = 110, force: bool = False
     write_csv(out / "comparison.csv", comparison.rows, ["t", *QUANTITIES, *NORMS.values()])
     write_text(out / "report.txt", comparison.report() + "\n")
     plot_history({"A": comparison.a, "B": comparison.b}, out / "history.png", dpi=dpi)
-
-
-# --- command line ---------------------------------------------------------------------------
-
-NAME, HELP = "compare", "differences of two runs in the model's norms, and their histories overlaid"
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("run_a", metavar="RUN_A", help="a run folder (with state files: output.fields \"state\")")
-    parser.add_argument("run_b", metavar="RUN_B", help="another run of the same bodies")
-    parser.add_argument("--out", help="a new folder for comparison.csv, report.txt and history.png "
-                                      "(default: compare-<A>-<B> in the current folder)")
-    add_force_argument(parser, NAME)
-
-
-def command(options) -> int:
-    out = Path(options.out or f"compare-{Path(options.run_a).resolve().name}-{Path(options.run_b).resolve().name}")
-    refuse_folder(out, NAME, options.force)  # before the comparison, which takes a FreeFem++ run
-    comparison = compare(options.run_a, options.run_b)
-    write(comparison, out, force=options.force)
-    print(comparison.report())
-    print(f"files: {', '.join(str(out / name) for name in FILES)}")
-    return 0

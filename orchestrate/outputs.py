@@ -74,14 +74,6 @@ def write_figure(figure, path: Path, **options) -> None:
         figure.savefig(handle, format=path.suffix.lstrip("."), metadata={"Creator": MARK}, **options)
 
 
-def add_force_argument(parser, command: str, single_file: bool = False) -> None:
-    """--force, for a command that writes a folder (or, `single_file`, one file) outside a run."""
-    if single_file:
-        replaced = "the --out file if this program wrote it (an image it drew, a page it generated), never a link"
-    else:
-        replaced = (f"the files an earlier `{command}` wrote in --out (its {RECORD} lists them); a folder that holds "
-                    "anything else is refused, and nothing is written through a link")
-    parser.add_argument("--force", action="store_true", help=f"replace {replaced}")
 
 
 def command_line(command: str) -> str:

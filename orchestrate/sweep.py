@@ -24,13 +24,13 @@ import re
 import tomllib
 from pathlib import Path
 
-from orchestrate.arguments import parse_assignments, positive, split_assignment
+from orchestrate.arguments import split_assignment
 from orchestrate.freefem import InputError
 from orchestrate.manifest import IncompleteRun, verify_manifest
 from orchestrate.outputs import claim_growing_folder, write_csv
 from orchestrate.parameters import scene_value
 from orchestrate.progress import counter, wanted
-from orchestrate.runner import SUFFIXES, add_trust_geo, inputs_of, run, signals_as_interrupt
+from orchestrate.runner import SUFFIXES, inputs_of, run, signals_as_interrupt
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
 
 FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
@@ -379,54 +379,3 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool, trust_ge
 
 def write_table(path: Path, rows: list[dict], keys: list[str]) -> None:
     write_csv(path, rows, [*keys, "folder", "status", "error", "warnings", "wallSeconds", "contactItersPerStep", *FIGURES])
-
-
-# --- command line ---------------------------------------------------------------------------
-
-NAME, HELP = "sweep", "run the cartesian product of overrides on dask.distributed"
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("scene", help="a scene file, e.g. scenes/paper.toml")
-    parser.add_argument("--grid", action="append", default=[], metavar="KEY=[V1, V2, ...]",
-                        help="values of one scene key: a TOML list, which takes any value (expressions as strings "
-                             "in quotes, commas and all: --grid 'body1.boundary[label=4].fy=[\"-10*min(t, 0.5)\", "
-                             "\"-20*t\"]'), or plain values split at every comma (--grid time.N=20,40; a piece of "
-                             "an expression cut at a comma is refused). A boundary condition is named by its label "
-                             "(body1.boundary[label=4].fy, preferred: it survives reordering) or its 0-based index "
-                             "(body1.boundary.1.fy). The runs are the product of every key's values")
-    parser.add_argument("--grid-file", metavar="FILE",
-                        help="a TOML file of scene keys and their lists of values, for many values: one key a line, "
-                             "'\"body1.boundary[label=4].fy\" = [\"-10*t\", \"-20*t\"]', or tables "
-                             "('[glue]' then 'gammaNu = [0, 1]'); with --grid, whose keys come after its own (a key "
-                             "in both is refused)")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override for every run (keys as for --grid)")
-    parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
-    parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
-    parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
-    parser.add_argument("--yes", action="store_true",
-                        help=f"run a grid of more than {MAX_UNASKED} combinations (refused without it: likely a "
-                             "slip)")
-    parser.add_argument("--images", action="store_true",
-                        help="render every run's images (off by default: a sweep's figures are in sweep.csv, and "
-                             "`render` draws any run's images later)")
-    add_trust_geo(parser)
-
-
-def command(options) -> int:
-    import sys
-
-    base = parse_assignments(options.set, "--set")
-    grid = grid_of(options.grid, options.grid_file)
-    if not options.images and "output.images" not in grid:
-        base.setdefault("output.images", False)
-    rows = sweep(options.scene, grid, options.out, base,
-                 workers=options.workers, scheduler=options.scheduler, progress=sys.stderr.isatty(), yes=options.yes,
-                 trust_geo=options.trust_geo)
-    width = max(len(row["folder"]) for row in rows)
-    for row in rows:
-        figure = f"normV(T) = {row['normV']:.6g}" if row.get("normV") is not None else row.get("error", "")
-        print(f"{row['folder']:<{width}}  {row['status']:<18}  {figure}")
-    print(f"table: {Path(options.out) / 'sweep.csv'}")
-    return 0 if all(row["status"] in ("completed", "skipped (complete)") for row in rows) else 1

@@ -53,7 +53,7 @@ def test_make_papers_run_reproduces_the_committed_figures_and_a_change_is_caught
     import json
 
     from orchestrate.cli import main
-    from orchestrate.runner import differences
+    from orchestrate.cli.run import differences
 
     committed = REPO / "results" / "paper"
     assert main(["run", str(REPO / "scenes" / "paper.toml"), "--out", str(tmp_path / "paper"),

@@ -34,12 +34,12 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO
-from orchestrate.outputs import add_force_argument, claim_folder, created, refuse_folder, write_figure, write_text
+from orchestrate.outputs import claim_folder, created, refuse_folder, write_figure, write_text
 from orchestrate.progress import wanted
 from orchestrate.results import cell_field
 from orchestrate.runner import run
 
-NAME, HELP = "hertz", "Hertz line contact against the analytic solution, over mesh levels"
+NAME = "hertz"  # the command, as its folders' made-by.json records it
 FILES = ("hertz.csv", "README.md", "pressure.png", "vonmises.png")
 RADIUS = 8.0  # R of meshes/hertz_cylinder.geo, which scenes/hertz.toml keeps
 CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
@@ -245,18 +245,3 @@ def gallery_figures(result, folder: Path) -> list[Path]:
     plot_pressure(paths[0], {"": (row, result)})
     plot_von_mises(paths[1], result)
     return paths
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
-    parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
-    parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
-    add_force_argument(parser, f"study {NAME}")
-
-
-def command(options) -> int:
-    import sys
-
-    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force)
-    print((Path(options.out) / "README.md").read_text())
-    return 0

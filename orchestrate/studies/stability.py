@@ -14,13 +14,15 @@ import numpy as np
 
 from orchestrate.freefem import REPO, SolverError
 from orchestrate.manifest import read_json
-from orchestrate.outputs import add_force_argument, claim_folder, refuse_folder, write_csv, write_text
+from orchestrate.outputs import claim_folder, refuse_folder, write_csv, write_text
 from orchestrate.parameters import ORDER
 from orchestrate.plots import log_axes, pyplot, save
 from orchestrate.progress import counter, wanted
 from orchestrate.runner import run
 from orchestrate.scene import Scene
 from orchestrate.studies.reports import stability_report
+
+NAME = "stability"  # the command, as its folders' made-by.json records it
 
 GLUE_SCENE = REPO / "scenes" / "shear.toml"
 # The shear scene with γ_ν = 0 (the glue never debonds, so p_τ β R*(slip) is a linear spring),
@@ -274,44 +276,6 @@ def plot(target: Path, rows: list[dict]) -> None:
     save(figure, target)
 
 
-# --- command line ---------------------------------------------------------------------------
-
-NAME, HELP = "stability", "predicted against observed explicit time-step bound"
-
-
-def positive_values(text: str) -> tuple[float, ...]:
-    """A comma-separated list of positive numbers, or nothing (that family of cases left out)."""
-    import argparse
-
-    try:
-        values = tuple(float(item) for item in text.split(",") if item.strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
-    if any(not value > 0 for value in values):
-        raise argparse.ArgumentTypeError(f"'{text}': every value must be > 0")
-    return values
-
 
 def listed(values) -> str:
     return ",".join(f"{value:g}" for value in values)
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("scene", nargs="?", default="scenes/paper.toml", help="the scene whose data it varies "
-                                                                              "(default: scenes/paper.toml)")
-    parser.add_argument("--out", default="results/stability", help="a new folder for the table, report and plot")
-    add_force_argument(parser, f"study {NAME}")
-    parser.add_argument("--young", type=positive_values, default=listed(YOUNG), metavar="E1,E2,...",
-                        help="Young's moduli of the cases of the elastic bound (each with and without damage) "
-                             "and of the implicit schemes ('' leaves them out)")
-    parser.add_argument("--p-tau", type=positive_values, default=listed(GLUE_STIFFNESSES), metavar="P1,P2,...",
-                        help="tangential glue stiffnesses p_τ of the glue-bound cases, per scheme ('' leaves them out)")
-
-
-def command(options) -> int:
-    import sys
-
-    stability(options.scene, options.out, young=options.young, glue=options.p_tau, progress=sys.stderr.isatty(),
-              force=options.force)
-    print((Path(options.out) / "README.md").read_text())
-    return 0

@@ -2,8 +2,9 @@
 parameter sweeps and their plots, images, runs compared, the gallery, studies, the benchmark and
 the scene format's reference from the shell.
 
-Each command lives in its module, which offers its own arguments (add_arguments) and handler
-(command); this file only assembles them and turns errors into one message and an exit code.
+Each command has a module here (orchestrate/cli/NAME.py: its arguments, add_arguments, and what
+it does with them, command), over the package's functions; argparse stays in this folder. This
+file assembles them and turns errors into one message and an exit code.
 """
 from __future__ import annotations
 
@@ -14,9 +15,9 @@ import sys
 from orchestrate.freefem import InputError, SolverError
 from orchestrate.mesh import MeshError
 
-COMMANDS = ("orchestrate.runner", "orchestrate.sweep", "orchestrate.plot", "orchestrate.render", "orchestrate.compare",
-            "orchestrate.studies.gallery", "orchestrate.studies.bench", "orchestrate.reference")
-STUDIES = ("orchestrate.studies.convergence", "orchestrate.studies.stability", "orchestrate.studies.hertz")
+COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
+                 ("run", "sweep", "plot", "render", "compare", "gallery", "bench", "reference"))
+STUDIES = tuple(f"orchestrate.cli.{name}" for name in ("convergence", "stability", "hertz"))
 
 
 class DefaultsShown(argparse.HelpFormatter):

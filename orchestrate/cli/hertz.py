@@ -1,0 +1,24 @@
+"""The command line of `orchestrate.studies.hertz`: its arguments and what the command does with them."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from orchestrate.cli.options import add_force_argument
+from orchestrate.studies.hertz import NAME, hertz
+
+HELP = "Hertz line contact against the analytic solution, over mesh levels"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
+    parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
+    parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
+    add_force_argument(parser, f"study {NAME}")
+
+
+def command(options) -> int:
+    import sys
+
+    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force)
+    print((Path(options.out) / "README.md").read_text())
+    return 0

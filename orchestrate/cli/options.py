@@ -1,0 +1,54 @@
+"""What the commands' options share: the types of their values and the options several commands
+take (--force, --trust-geo)."""
+from __future__ import annotations
+
+import argparse
+
+from orchestrate.outputs import RECORD
+
+
+def add_force_argument(parser, command: str, single_file: bool = False) -> None:
+    """--force, for a command that writes a folder (or, `single_file`, one file) outside a run."""
+    if single_file:
+        replaced = "the --out file if this program wrote it (an image it drew, a page it generated), never a link"
+    else:
+        replaced = (f"the files an earlier `{command}` wrote in --out (its {RECORD} lists them); a folder that holds "
+                    "anything else is refused, and nothing is written through a link")
+    parser.add_argument("--force", action="store_true", help=f"replace {replaced}")
+
+
+def add_trust_geo(parser) -> None:
+    parser.add_argument("--trust-geo", action="store_true",
+                        help="on a kernel without Landlock, mesh the scene's own .geo files all the same: gmsh then "
+                             "runs them unconfined, and a .geo can run programs and read or write your files")
+
+
+def positive(text: str) -> int:
+    """An integer ≥ 1 for --workers and --levels-like options."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not allowed: give an integer >= 1")
+    return value
+
+
+def at_least_two(text: str) -> int:
+    value = positive(text)
+    if value < 2:
+        raise argparse.ArgumentTypeError("a ladder needs at least 2 levels (the finest is the reference)")
+    return value
+
+
+def choices_list(allowed) -> callable:
+    """A comma-separated list of distinct words among `allowed`, for --ladders-like options."""
+    def parse(text: str) -> list[str]:
+        words = [word.strip() for word in text.split(",")]
+        for word in words:
+            if word not in allowed:
+                raise argparse.ArgumentTypeError(f"'{word}' is not one of {', '.join(allowed)}")
+        if len(set(words)) != len(words):
+            raise argparse.ArgumentTypeError(f"'{text}' lists a word twice")
+        return words
+    return parse
