@@ -114,15 +114,30 @@ def refuse_link(path: Path, option: str, advice: str) -> None:
         raise OutputError(f"{option} {path} is a symbolic link: {advice} (nothing is written through a link)")
 
 
-def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out") -> None:
-    """Raises unless `command` may write into `folder`: a new or empty folder, or with `force` one
-    whose record is this command's and which holds nothing else."""
+def entries(folder: Path, option: str) -> set[str]:
+    """The names in `folder`, none when it is not there; refused when it is a link or a file."""
     if not os.path.lexists(folder):
-        return
+        return set()
     refuse_link(folder, option, "give a folder's own path")
     if not folder.is_dir():
         raise OutputError(f"{option} {folder} is a file, not a folder: choose another {option}")
-    present = set(os.listdir(folder))
+    return set(os.listdir(folder))
+
+
+def write_record(folder: Path, command: str, files, folders, note: str) -> None:
+    record = {"command": command, "files": sorted(files), "folders": sorted(folders), "note": note}
+    write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+
+
+def drawn_image(path: Path) -> bool:
+    """An image this package drew (its format's signature and the package's mark)."""
+    return path.suffix.lower() in SIGNATURES and holds_mark(path, MARK)
+
+
+def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out") -> None:
+    """Raises unless `command` may write into `folder`: a new or empty folder, or with `force` one
+    whose record is this command's and which holds nothing else."""
+    present = entries(folder, option)
     if not present:
         return
     record = read_record(folder)
@@ -152,11 +167,7 @@ def claim_growing_folder(folder: Path, command: str, files, folders, work_suffix
     only what its record lists (with the work folders beside its run folders, `work_suffixes`)
     and images this package drew; recorded with the union of the old and new names before anything
     is written."""
-    if os.path.lexists(folder):
-        refuse_link(folder, option, "give a folder's own path")
-        if not folder.is_dir():
-            raise OutputError(f"{option} {folder} is a file, not a folder: choose another {option}")
-    present = set(os.listdir(folder)) if folder.is_dir() else set()
+    present = entries(folder, option)
     old = read_record(folder) if present else {"command": command, "files": [], "folders": []}
     if old is None or old["command"] != command:
         whose = "no orchestrate command recorded writing" if old is None else f"`{command_line(old['command'])}` wrote"
@@ -165,15 +176,13 @@ def claim_growing_folder(folder: Path, command: str, files, folders, work_suffix
                           f"empty folder, or one an earlier `{command_line(command)}` recorded")
     folders = sorted({*old["folders"], *folders})
     own = {RECORD, *old["files"], *files, *folders, *(name + suffix for name in folders for suffix in work_suffixes)}
-    foreign = {name for name in present - own
-               if not (name.endswith(tuple(SIGNATURES)) and holds_mark(folder / name, MARK))}
+    foreign = {name for name in present - own if not drawn_image(folder / name)}
     if foreign:
         raise OutputError(f"{option} {folder} also holds {listed(foreign)}, which `{command_line(command)}` did not "
                           f"write: move those away or choose another {option}")
     folder.mkdir(parents=True, exist_ok=True)
-    record = {"command": command, "files": sorted({*old["files"], *files}), "folders": folders,
-              "note": "the files and run folders this command wrote here, which a later one continues"}
-    write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+    write_record(folder, command, {*old["files"], *files}, folders,
+                 "the files and run folders this command wrote here, which a later one continues")
     return folder
 
 
@@ -194,9 +203,8 @@ def claim_folder(folder: Path, command: str, files, force: bool, folders=(), opt
         elif name in old["files"] and os.path.lexists(path):
             raise OutputError(f"{option} {folder}: {name} was a file of `{command_line(command)}` and is now a "
                               f"folder: remove it or choose another {option}")
-    record = {"command": command, "files": sorted(files), "folders": sorted(folders),
-              "note": "the files this command wrote here: --force replaces these and refuses a folder holding others"}
-    write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+    write_record(folder, command, files, folders,
+                 "the files this command wrote here: --force replaces these and refuses a folder holding others")
     return folder
 
 

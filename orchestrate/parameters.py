@@ -200,13 +200,18 @@ ENDIFMACRO
 """
 
 
+def idp_name(key: str) -> str:
+    """A coefficient's FreeFEM variable: viscousWeight → schemeViscousWeight."""
+    return f"scheme{key[0].upper()}{key[1:]}"
+
+
 def schemes_idp() -> str:
     names = list(SCHEMES)
-    declared = "\n".join(f"{kind} scheme{key[0].upper()}{key[1:]}{'(' + str(len(SCHEMES[names[0]][key])) + ')' if kind == 'real[int]' else ''};"
+    declared = "\n".join(f"{kind} {idp_name(key)}{f'({LENGTHS[key]})' if key in LENGTHS else ''};"
                          for key, kind in SCHEME_KEYS.items())
     branches = []
     for j, name in enumerate(names):
-        values = " ".join(f"scheme{key[0].upper()}{key[1:]} = {freefem_number(SCHEMES[name][key])};" for key in SCHEME_KEYS)
+        values = " ".join(f"{idp_name(key)} = {freefem_number(SCHEMES[name][key])};" for key in SCHEME_KEYS)
         branches.append(f'{"if" if j == 0 else "else if"} (scheme == {freefem_text(name)}) {{ {values} }}')
     allowed = ", ".join(names)
     branches.append(f'else fail(3, "parameter scheme = \'" + scheme + "\' is not allowed: allowed {allowed}");')

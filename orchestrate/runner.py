@@ -41,7 +41,7 @@ from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
 from orchestrate.identity import solver_identity
 from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, facts, is_run_entry, write_manifest
-from orchestrate.outputs import MARK, holds_mark
+from orchestrate.outputs import drawn_image
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
@@ -147,7 +147,7 @@ def refuse_existing(out: Path, force: bool) -> None:
         raise RunError(f"{out} exists and is not a run folder (no manifest.json, run.json or summary.json): --force replaces only "
                        "the folders of runs; choose another --out")
     foreign = [name for name in os.listdir(out) if not is_run_entry(name)
-               or IMAGE.fullmatch(name) and not holds_mark(out / name, MARK)]  # an image by name only: the user's
+               or IMAGE.fullmatch(name) and not drawn_image(out / name)]  # an image by name only: the user's
     if foreign:
         raise RunError(f"{out} holds a run and also {', '.join(sorted(foreign)[:5])}{' …' if len(foreign) > 5 else ''}, "
                        "which no run writes: --force replaces only a run's own files; move those away or choose another --out")
