@@ -34,9 +34,8 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 # The project's FreeFEM plugins (edp/plugins: blocksolve, many right-hand sides at once;
-# factorsplit, the halves of CHOLMOD's solves; strainoperators, a body's strain operators;
-# stresses, a step's per-triangle stresses; damagesource, the damage step's right-hand side), compiled
-# unless built from their source as it is for the FreeFem++ installed (bin/plugins).
+# factorsplit, the halves of CHOLMOD's solves; strainoperators, a body's strain operators in compact
+# form), compiled unless built from their source as it is for the FreeFem++ installed (bin/plugins).
 plugins: system-packages
 	bin/plugins build
 

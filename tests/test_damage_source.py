@@ -1,8 +1,9 @@
-"""The damage step's right-hand side in the plugin edp/plugins/damagesource.cpp (edp/lib/damage.idp)
-is the script it replaced, to the bit, in each of its branches: ζ below ζ_min somewhere (clamped,
-the nodes counted) or not, ε:ε above L somewhere (truncated) or not, λ_D = 0 or λ_u = 0. And a fact
-of its own: with λ_D = λ_u = 0 the source is M(inertia + λ_w), whose sum over the nodes is
-(inertia + λ_w) times the area when the inertia is constant."""
+"""The damage step's right-hand side (edp/lib/damage.idp, damageSourceOf; docs/model.md §3, §6),
+b = M(inertia + λ_D (1 − ζc)/ζc + λ_w) − ½ λ_u Q R(ε:ε), ζc = max(ζ, ζ_min), R(s) = min(s, L), against
+its value for fields constant on the mesh, where every integral is the area times the constant:
+Σ_j b_j = |Ω| (inertia + λ_D (1 − ζc)/ζc + λ_w − ½ λ_u R(ε:ε)), in each branch (ζ below ζ_min: clamped
+and its nodes counted; ε:ε above L: truncated; λ_D = 0; λ_u = 0). And for fields that vary, the
+part each term adds is linear in it: b(λ_D, λ_u, λ_w) = b(0, 0, 0) + the three parts apart."""
 import textwrap
 
 import pytest
@@ -12,87 +13,53 @@ from orchestrate.freefem import REPO, run_script
 pytestmark = pytest.mark.solver
 
 CHECK = textwrap.dedent("""
-    load "damagesource"
     include "REPO/edp/lib/arrays.idp"
     real zetaMin = 1e-3, L = 0.7;
-    mesh Th = square(9, 7, [3*x, 2*y]);
+    string linearSolver = "CHOLMOD";
+    include "REPO/edp/lib/damage.idp"
+    mesh Th = square(9, 7, [3*x, 2*y]);  /* |Ω| = 6 */
     fespace Sh(Th, P1);
     fespace Ph(Th, P0);
     varf vMass(z, w) = int2d(Th)(z*w);
     varf vCellLoad(q, w) = int2d(Th)(q*w);
     matrix Md = vMass(Sh, Sh), Q = vCellLoad(Ph, Sh);
-    int ops = damageOperators(Md, Q);
-    // the script the plugin replaced (damage.idp before it)
-    func int damageSourceScript(matrix & Md, matrix & Q, real lambdaD, real lambdaU, real lambdaW, real[int] & inertia,
-                                real[int] & zeta, real[int] & density, real[int] & b) {
-      int below = 0;
-      real[int] nodal = inertia;
-      if (lambdaD != 0) {
-        real[int] inverse(zeta.n);
-        inverse = 1;
-        if (zeta.min < zetaMin) {
-          real[int] gap = -zeta;
-          gap += zetaMin;
-          below = lrint(positivePart01(gap).sum);
-          inverse = inverse ./ maxWith(zeta, zetaMin);
-        } else inverse = inverse ./ zeta;
-        nodal += lambdaD*inverse;
-      }
-      nodal += lambdaW - lambdaD;
-      b = Md*nodal;
-      if (lambdaU != 0) {
-        real[int] cellLoad(b.n);
-        if (density.max <= L) cellLoad = Q*density;
-        else cellLoad = Q*minWith(density, L);
-        b -= (0.5*lambdaU)*cellLoad;
-      }
-      return below;
+    real[int] inertia(Sh.ndof), zeta(Sh.ndof), density(Ph.ndof), b(Sh.ndof);
+    real[int,int] cases = [[0.01, 1, 0], [0.01, 1, 0.2], [0, 1, 0.1], [0.02, 0, 0.3]];
+    real[int] zetas = [0.4, 1e-5, 0.], densities = [0.3, 2.5];
+    cout.precision(17);
+    for (int c = 0; c < cases.n; c++) for (int z = 0; z < zetas.n; z++) for (int d = 0; d < densities.n; d++) {
+      inertia = 7.5; zeta = zetas[z]; density = densities[d];
+      int below = damageSourceOf(Md, Q, cases(c, 0), cases(c, 1), cases(c, 2), inertia, zeta, density, b);
+      cout << "constant " << cases(c, 0) << " " << cases(c, 1) << " " << cases(c, 2) << " " << zetas[z] << " "
+           << densities[d] << " " << below << " " << b.sum << " " << Sh.ndof << endl;
     }
-    real[int] inertia(Sh.ndof), zeta(Sh.ndof), density(Ph.ndof), b(Sh.ndof), bScript(Sh.ndof);
     for (int j = 0; j < Sh.ndof; j++) { inertia[j] = 10*randreal1(); zeta[j] = 0.05 + 0.95*randreal1(); }
     for (int t = 0; t < Ph.ndof; t++) density[t] = 0.6*randreal1();
-    real[int,int] cases = [[0.01, 1, 0], [0.01, 1, 0.2], [0, 1, 0.1], [0.02, 0, 0.3]];
-    real nan = sqrt(-1.);
-    /* ζ and ε:ε inside, ζ below ζ_min, ε:ε above L, both; then a NaN after a value out of range
-       (FreeFEM's min and max pass over the values before a NaN: no clamp, no truncation) */
-    for (int variant = 0; variant < 6; variant++)
-      for (int c = 0; c < cases.n; c++) {
-        real[int] z = zeta, d = density;
-        if (variant % 2 == 1 && variant < 4) { z[3] = 0; z[17] = 1e-5; z[40] = -1e-9; }
-        if (variant == 2 || variant == 3) { d[5] = 2.5; d[11] = 0.71; }
-        if (variant == 4) { z[0] = 0; z[1] = nan; }
-        if (variant == 5) { d[0] = 5; d[1] = nan; }
-        real[int] data = [cases(c, 0), cases(c, 1), cases(c, 2), zetaMin, L];
-        int below = damageSource(ops, data, inertia, z, d, b);
-        int belowScript = damageSourceScript(Md, Q, cases(c, 0), cases(c, 1), cases(c, 2), inertia, z, d, bScript);
-        int same = 1;  /* to the bit, a NaN or an infinity in the same places */
-        for (int j = 0; j < b.n; j++) same = same && (b[j] == bScript[j] || (isNaN(b[j]) && isNaN(bScript[j])));
-        cout << "case " << variant << " " << c << " " << (1 - same) << " " << below << " " << belowScript << endl;
-      }
-    real[int] one(Sh.ndof), data = [0, 0, 0.25, zetaMin, L];
-    one = 2;
-    damageSource(ops, data, one, zeta, density, b);
-    cout << "mass " << abs(b.sum - 2.25*6)/(2.25*6) << endl;
+    real[int] none(Sh.ndof), withD(Sh.ndof), withU(Sh.ndof), withW(Sh.ndof), all(Sh.ndof);
+    damageSourceOf(Md, Q, 0, 0, 0, inertia, zeta, density, none);
+    damageSourceOf(Md, Q, 0.01, 0, 0, inertia, zeta, density, withD);
+    damageSourceOf(Md, Q, 0, 1, 0, inertia, zeta, density, withU);
+    damageSourceOf(Md, Q, 0, 0, 0.2, inertia, zeta, density, withW);
+    damageSourceOf(Md, Q, 0.01, 1, 0.2, inertia, zeta, density, all);
+    real[int] sum = withD + withU;
+    sum += withW;
+    sum -= 2*none;
+    sum -= all;
+    cout << "parts " << sum.linfty/all.linfty << endl;
 """)
 
 
-def test_the_plugins_damage_source_is_the_scripts_to_the_bit_in_every_branch(tmp_path):
+def test_the_damage_source_integrates_its_terms(tmp_path):
     script = tmp_path / "source.edp"
     script.write_text(CHECK.replace("REPO", str(REPO)))
     done = run_script(script)
     assert done.returncode == 0, done.stdout + done.stderr
-    cases = [line.split()[1:] for line in done.stdout.splitlines() if line.startswith("case ")]
-    assert len(cases) == 24
-    for variant, case, apart, below, below_script in cases:
-        assert float(apart) == 0 and below == below_script, (variant, case)
-        assert int(below) == (3 if variant in ("1", "3") and case != "2" else 0), (variant, case)
-    mass = [float(line.split()[1]) for line in done.stdout.splitlines() if line.startswith("mass ")]
-    assert mass and mass[0] <= 1e-14
-
-
-def test_a_number_that_is_no_damage_operators_is_named(tmp_path):
-    script = tmp_path / "wrong.edp"
-    script.write_text('load "damagesource"\nreal[int] d = [0, 0, 0, 0, 1], a(3), b(3), c(3), e(3);\n'
-                      'damageSource(2, d, a, b, c, e);\n')
-    done = run_script(script)
-    assert done.returncode != 0 and "not a number damageOperators gave" in done.stdout + done.stderr
+    rows = [[float(v) for v in line.split()[1:]] for line in done.stdout.splitlines() if line.startswith("constant ")]
+    assert len(rows) == 24
+    for lambda_d, lambda_u, lambda_w, zeta, density, below, total, nodes in rows:
+        clamped = max(zeta, 1e-3)
+        expected = 6 * (7.5 + lambda_d * (1 - clamped) / clamped + lambda_w - 0.5 * lambda_u * min(density, 0.7))
+        assert total == pytest.approx(expected, rel=1e-12), (lambda_d, lambda_u, lambda_w, zeta, density)
+        assert below == (nodes if lambda_d != 0 and zeta < 1e-3 else 0)
+    parts = [float(line.split()[1]) for line in done.stdout.splitlines() if line.startswith("parts ")]
+    assert parts and parts[0] <= 1e-14

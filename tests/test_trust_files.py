@@ -40,9 +40,10 @@ def edp_copy(tmp_path):
 
 
 @pytest.mark.parametrize("change", [
-    lambda edp: (edp / "plugins" / "damagesource.cpp").write_text(
-        (edp / "plugins" / "damagesource.cpp").read_text().replace("0.5", "0.25", 1)),
-    lambda edp: (edp / "plugins" / "stresses.so").write_bytes((edp / "plugins" / "stresses.so").read_bytes() + b"\0"),
+    lambda edp: (edp / "plugins" / "strainoperators.cpp").write_text(
+        (edp / "plugins" / "strainoperators.cpp").read_text().replace("gy*ux + gx*uy", "gx*ux + gy*uy", 1)),
+    lambda edp: (edp / "plugins" / "strainoperators.so").write_bytes(
+        (edp / "plugins" / "strainoperators.so").read_bytes() + b"\0"),
     lambda edp: (edp / "lib" / "parameterTable.idp").write_text(
         (edp / "lib" / "parameterTable.idp").read_text().replace('"1e-10"', '"1e-9"', 1)),
     lambda edp: (edp / "lib" / "damage.idp").write_text((edp / "lib" / "damage.idp").read_text() + "// a comment\n"),
