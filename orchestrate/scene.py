@@ -313,6 +313,9 @@ class Glue(Strict):
     gammaNu: float = field("gammaNu")
     gammaR: float = field("gammaR")
     pTau: float = field("pTau")
+    debondMobility: float = field("debondMobility")
+    adhesionEnergy: float = field("adhesionEnergy")
+    shearDebonding: bool = field("shearDebonding")
     L: float = field("L")
     beta0: initial_value("beta0")
 
