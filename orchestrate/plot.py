@@ -1,10 +1,16 @@
-"""A figure of a sweep against a swept value: python -m orchestrate plot SWEEP --y contactForce.
+"""Figures of runs: python -m orchestrate plot SOURCE --y Y [--x X].
 
-It reads the sweep's table (sweep.csv, orchestrate/sweep.py): the swept keys are its columns
-before `folder`. The figure (`--y`: a run figure such as normV, or wallSeconds) is drawn against
-one swept key (`--x`, default the first), one curve per combination of the other swept values.
-Runs that did not complete are left out and named under the plot. Numeric values are placed by
-value; others (expressions, words) one after the other, in the order the sweep listed them.
+A sweep's final figures against a swept value (plot_sweep): it reads the sweep's table
+(sweep.csv, orchestrate/sweep.py), whose swept keys are its columns before `folder`. The figure
+(`--y`: a run figure such as normV, or wallSeconds) is drawn against one swept key (`--x`, default
+the first), one curve per combination of the other swept values. Runs that did not complete are
+left out and named under the plot. Numeric values are placed by value; others (expressions,
+words) one after the other, in the order the sweep listed them.
+
+Two columns of a run's history against each other (plot_history): a force against a
+displacement, an energy against time (`--x`, default t). SOURCE is a run folder, or a sweep's
+folder, whose every completed run gives a curve labelled by its swept values. Each run is read
+through its manifest (orchestrate/results.py); a sweep's runs are those its record lists.
 """
 from __future__ import annotations
 
@@ -14,9 +20,10 @@ import textwrap
 from pathlib import Path
 
 from orchestrate.freefem import InputError
-from orchestrate.outputs import MARK, refuse_file
+from orchestrate.outputs import MARK, plain_name, read_record, refuse_file
 from orchestrate.plots import plain, pyplot, save
 from orchestrate.render import steady_axis
+from orchestrate.results import load_result
 from orchestrate.sweep import FIGURES
 
 DONE = ("completed", "skipped (complete)")
@@ -102,5 +109,64 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
         axis.legend(fontsize=8)
     if left_out:
         axis.set_title(plain(textwrap.fill(f"left out (did not complete): {', '.join(left_out)}", 110)), fontsize=7)
+    save(figure, target, dpi=dpi)
+    return target
+
+
+def is_sweep(source: str | Path) -> bool:
+    return (Path(source) / "sweep.csv").is_file()
+
+
+def history_runs(source: str | Path) -> list[tuple[str, Path]]:
+    """The runs a history figure draws, each with its label: a run folder alone (no label), or the
+    completed runs of a sweep that its record lists, labelled by their swept values."""
+    source = Path(source)
+    if not is_sweep(source):
+        return [("", source)]
+    keys, rows = read_sweep(source)
+    record = read_record(source)
+    own = set(record["folders"]) if record else set()
+    return [(", ".join(f"{key} = {row[key]}" for key in keys), source / row["folder"]) for row in rows
+            if row["status"] in DONE and plain_name(row["folder"]) and row["folder"] in own]
+
+
+def plot_history(source: str | Path, y: str, x: str = "t", target: str | Path | None = None, log: str = "none",
+                 dpi: int = 110, force: bool = False) -> Path:
+    """Draw the history column `y` against the column `x` of a run, or of every completed run of a
+    sweep, into `target` (.png, .pdf or .svg; default: a sweep's <source>/<y>-vs-<x>.png, beside a
+    run folder <source>-<y>-vs-<x>.png, since a run folder holds its manifest's files alone), a new
+    file or with `force` an image this program drew; log is "none", "x", "y" or "xy"."""
+    source = Path(source)
+    if target is None:
+        target = source / f"{y}-vs-{x}.png" if is_sweep(source) else source.parent / f"{source.name}-{y}-vs-{x}.png"
+    target = Path(target)
+    if target.suffix not in FORMATS:
+        raise InputError(f"--out {target}: give a file name ending in {', '.join(FORMATS)}")
+    runs = history_runs(source)
+    if not runs:
+        raise InputError(f"{source}: no run of the sweep completed: nothing to draw")
+    try:
+        histories = [(label, load_result(folder).history) for label, folder in runs]
+    except FileNotFoundError:
+        raise InputError(f"{source} is neither a sweep's folder (no sweep.csv) nor a run folder (no manifest.json, "
+                         "no run.json)") from None
+    columns = list(histories[0][1])
+    for option, name in (("--x", x), ("--y", y)):
+        if name not in columns:
+            raise InputError(f"{option} {name}: not a column of history.csv (columns: {', '.join(columns)})")
+    refuse_file(target, force, MARK)
+    figure, axis = pyplot().subplots(figsize=(7, 4.5))
+    for label, history in histories:
+        axis.plot(history[x], history[y], "-", marker="." if len(history[x]) <= 60 else None, label=plain(label) or None)
+    axis.set_xscale("log" if "x" in log else "linear")
+    if "y" in log:
+        axis.set_yscale("log")
+    else:
+        steady_axis(axis, [value for _, history in histories for value in history[y]])
+    axis.set_xlabel(x)
+    axis.set_ylabel(y)
+    axis.grid(True, alpha=0.3)
+    if len(histories) > 1:
+        axis.legend(fontsize=8)
     save(figure, target, dpi=dpi)
     return target

@@ -46,7 +46,7 @@ def test_the_image_and_the_errors(table, capsys):
     with pytest.raises(InputError, match=r"--x glue.gammaNu: not a swept key .*swept: time.N, body1.boundary.0.fy"):
         series(*read_sweep(table), "glue.gammaNu", "normV")
     assert main(["plot", str(table.parent / "nowhere"), "--y", "normV"]) == 2
-    assert "holds no sweep.csv" in capsys.readouterr().err
+    assert "is neither a sweep's folder (no sweep.csv) nor a run folder" in capsys.readouterr().err
     with pytest.raises(InputError, match=r"--out .*x.txt: give a file name ending in .png, .pdf, .svg"):
         plot_sweep(table, "normV", target=table / "x.txt")
     with pytest.raises(InputError, match="no run of the sweep completed with a value of betaMin"):

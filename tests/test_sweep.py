@@ -3,6 +3,7 @@ the same sweep again runs only what did not complete. The grid's syntax: TOML li
 boundary conditions by label, grid files."""
 import csv
 import re
+import shutil
 import subprocess
 import sys
 
@@ -10,6 +11,9 @@ import pytest
 
 from orchestrate import SceneError, sweep
 from orchestrate.freefem import REPO
+from orchestrate.freefem import InputError
+from orchestrate.plot import history_runs, plot_history
+from orchestrate.results import load_result
 from orchestrate.sweep import grid_of, parse_grid, plan
 
 pytestmark = pytest.mark.runs
@@ -249,3 +253,41 @@ def test_a_grid_nested_too_deeply_names_its_file(tmp_path):
     assert grid_of([], path) == {"output.times": [[0.5, 1.0], [1.0]]}
     with pytest.raises(SceneError, match="--grid time.N: its values nest lists or tables more than 16 deep"):
         grid_of(["time.N=" + "[" * 3000 + "]" * 3000], None)
+
+
+@pytest.fixture(scope="module")
+def glued(tmp_path_factory):
+    """A sweep of its own (the other tests change theirs): two runs that complete, one that fails."""
+    out = tmp_path_factory.mktemp("glued")
+    sweep(SCENE, {"glue.gammaNu": [0.0, 1.0, 1e7]}, out, BASE, workers=2)
+    return out
+
+
+def test_history_columns_of_each_run_of_a_sweep_and_of_one_run_are_drawn(glued, tmp_path):
+    """`plot SOURCE --y COLUMN --x COLUMN`: a curve per completed run (labelled by its swept values,
+    the failed one left out), or one run's alone; the columns must be the history's."""
+    out = glued
+    runs = history_runs(out)
+    assert [label for label, _ in runs] == ["glue.gammaNu = 0.0", "glue.gammaNu = 1.0"]
+    assert all(len(load_result(folder).history["forceY1"]) == 20 for _, folder in runs)
+    target = plot_history(out, "forceY1", "t", tmp_path / "force.png")
+    assert target.read_bytes().startswith(b"\x89PNG") and target.stat().st_size > 5000
+    single = plot_history(runs[0][1], "contactForce", "normV", tmp_path / "one.svg")
+    assert single.read_text().startswith("<?xml")
+    beside = plot_history(runs[0][1], "betaMean")  # beside the run folder, which holds its manifest's files alone
+    assert beside == runs[0][1].parent / f"{runs[0][1].name}-betaMean-vs-t.png"
+    load_result(runs[0][1])
+    with pytest.raises(InputError, match=r"--y forceZ1: not a column of history.csv \(columns: n, t, normV"):
+        plot_history(out, "forceZ1", "t", tmp_path / "x.png")
+    with pytest.raises(InputError, match=r"--x time: not a column of history.csv"):
+        plot_history(runs[0][1], "normV", "time", tmp_path / "x.png")
+
+
+def test_a_sweep_row_naming_a_folder_its_record_does_not_list_is_not_read(glued, tmp_path):
+    out = glued
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    text = (copy / "sweep.csv").read_text()
+    first_folder = history_runs(copy)[0][1].name
+    (copy / "sweep.csv").write_text(text.replace(first_folder, "../elsewhere", 1))
+    assert [folder.name for _, folder in history_runs(copy)] == [folder.name for _, folder in history_runs(out)][1:]
