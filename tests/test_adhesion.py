@@ -7,7 +7,9 @@
 - its results do not depend on the unit of stress: a pre-cracked joint pulled open, run in a unit
   1000 times smaller (every stiffness, viscosity, γ_ν, p_τ and ε_a × 1000, m_d ÷ 1000), gives the same
   u, ζ and β to round-off, its front moving; the paper's law (m_d = 1 in every unit) does not (in
-  kN, 1000 times larger)."""
+  kN, 1000 times larger);
+- the debonding front (history.csv debondFront) starts at the pre-crack's tip, only recedes while the
+  joint opens without rebonding, and is where β crosses ½ in the run's final state."""
 import math
 import tomllib
 
@@ -109,3 +111,24 @@ def test_the_law_does_not_depend_on_the_unit_of_stress(tmp_path):
     _, paper = joint(tmp_path, "paper", 1.0, False)
     _, paper_scaled = joint(tmp_path, "paper-kN", 0.001, False)  # (in mN, its explicit bonding step overshoots)
     assert np.abs(paper_scaled["beta"] - paper["beta"]).max() > 0.05  # the paper's law: γ_ν is also the rate
+
+
+def crossing(s: np.ndarray, beta: np.ndarray) -> float:
+    """Where β (one value a segment of the nodes s, at the segments' midpoints, linear between)
+    first crosses ½, from s[0]."""
+    middle = 0.5 * (s[:-1] + s[1:]) - s[0]
+    side = beta >= 0.5
+    change = np.flatnonzero(side != side[0])
+    if not change.size:
+        return s[-1] - s[0] if side[0] else 0.0
+    e = change[0]
+    return float(np.interp(0.5, sorted([beta[e - 1], beta[e]]),
+                           [middle[e - 1], middle[e]] if beta[e - 1] < beta[e] else [middle[e], middle[e - 1]]))
+
+
+def test_the_debonding_front_is_where_beta_crosses_one_half(tmp_path):
+    history, state = joint(tmp_path, "front", 1.0, False)
+    front = history["debondFront"]
+    assert front[0] == pytest.approx(4.5, abs=1e-6)  # scenes/precrack.toml: bonded where x < 4.5 (after step 1)
+    assert (np.diff(front) <= 1e-12).all() and front[-1] < 4.0  # it recedes, and far
+    assert front[-1] == pytest.approx(crossing(state["s"], state["beta"]), rel=1e-12)
