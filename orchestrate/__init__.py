@@ -5,11 +5,11 @@ and makes images. It never re-implements the solver.
 """
 from orchestrate.compare import Comparison, compare
 from orchestrate.freefem import REPO, SolverError
-from orchestrate.plot import plot_history, plot_sweep
+from orchestrate.plot import plot_columns, plot_sweep
 from orchestrate.results import Result, load_result
 from orchestrate.runner import run
 from orchestrate.scene import Scene, SceneError
 from orchestrate.sweep import sweep
 
-__all__ = ["REPO", "Comparison", "Result", "Scene", "SceneError", "SolverError", "compare", "load_result", "plot_history",
+__all__ = ["REPO", "Comparison", "Result", "Scene", "SceneError", "SolverError", "compare", "load_result", "plot_columns",
            "plot_sweep", "run", "sweep"]

@@ -7,7 +7,7 @@ the first), one curve per combination of the other swept values. Runs that did n
 left out and named under the plot. Numeric values are placed by value; others (expressions,
 words) one after the other, in the order the sweep listed them.
 
-Two columns of a run's history against each other (plot_history): a force against a
+Two columns of a run's history against each other (plot_columns): a force against a
 displacement, an energy against time (`--x`, default t). SOURCE is a run folder, or a sweep's
 folder, whose every completed run gives a curve labelled by its swept values. Each run is read
 through its manifest (orchestrate/results.py); a sweep's runs are those its record lists.
@@ -130,7 +130,7 @@ def history_runs(source: str | Path) -> list[tuple[str, Path]]:
             if row["status"] in DONE and plain_name(row["folder"]) and row["folder"] in own]
 
 
-def plot_history(source: str | Path, y: str, x: str = "t", target: str | Path | None = None, log: str = "none",
+def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | None = None, log: str = "none",
                  dpi: int = 110, force: bool = False) -> Path:
     """Draw the history column `y` against the column `x` of a run, or of every completed run of a
     sweep, into `target` (.png, .pdf or .svg; default: a sweep's <source>/<y>-vs-<x>.png, beside a

@@ -10,11 +10,25 @@ import numpy as np
 from orchestrate.outputs import write_figure
 from orchestrate.plots import pyplot, save
 from orchestrate.results import Result
+from orchestrate.scene import Units
 
 
-# The labels of a scene's consistent units (output.units): length, stress, force per unit thickness.
-UNITS = {"SI": {"length": "m", "stress": "N/m²", "force": "N/m"},
-         "mm-N-s": {"length": "mm", "stress": "MPa", "force": "N/mm"}}
+# The labels of a scene's consistent units (output.units): length, stress, force per unit
+# thickness, time; a scene's own table names length, force and time, and the others follow.
+UNITS = {"SI": {"length": "m", "stress": "N/m²", "force": "N/m", "time": "s"},
+         "mm-N-s": {"length": "mm", "stress": "MPa", "force": "N/mm", "time": "s"}}
+
+
+def unit_labels(units) -> dict[str, str]:
+    """The labels of output.units: a preset's name, or a table {length, force, time} of names."""
+    if isinstance(units, str):
+        return UNITS.get(units, UNITS["SI"])
+    try:
+        named = Units.model_validate(units)
+    except ValueError:  # a hand-edited table: the labels are never guessed
+        return UNITS["SI"]
+    return {"length": named.length, "stress": f"{named.force}/{named.length}²", "force": f"{named.force}/{named.length}",
+            "time": named.time}
 
 
 def units_of(result: Result) -> dict[str, str]:
@@ -25,7 +39,7 @@ def units_of(result: Result) -> dict[str, str]:
         scene = tomllib.loads((result.folder / "scene.toml").read_text())
     except (OSError, tomllib.TOMLDecodeError):
         return UNITS["SI"]
-    return UNITS.get(scene.get("output", {}).get("units", "SI"), UNITS["SI"])
+    return unit_labels(scene.get("output", {}).get("units", "SI"))
 
 
 # What the body files hold that a figure can show: title, unit kind (a key of UNITS, or None),
@@ -307,7 +321,7 @@ def plot_history(runs: Result | dict[str, Result], target: Path, dpi: int = 110)
         if len(columns) > 1 or len(runs) > 1:
             axis.legend(fontsize=8)
     for axis in axes[-1]:
-        axis.set_xlabel("t (s)")
+        axis.set_xlabel(f"t ({units['time']})")
     save(figure, target, dpi=dpi)
     return target
 

@@ -19,8 +19,8 @@ import unicodedata
 from pathlib import Path
 from typing import Annotated, Literal, Union
 
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
-                      model_validator)
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag, ValidationError, ValidationInfo,
+                      field_validator, model_validator)
 
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
@@ -353,6 +353,31 @@ class Solver(Strict):
         return self
 
 
+UNIT_NAME = re.compile(r"[A-Za-zµ]{1,8}")  # a unit's name as the images print it: letters only (no TeX)
+UNIT_PRESET, UNIT_TABLE = "units-preset", "units-table"  # output.units' two forms (tags, not keys: left out of messages)
+
+
+def _unit_preset(value):
+    if value not in ("SI", "mm-N-s"):
+        raise ValueError('give "SI", "mm-N-s", or a table of the scene\'s own units, '
+                         '{ length = "mm", force = "N", time = "s" }')
+    return value
+
+
+class Units(Strict):
+    """A consistent set of units, by their names (the images label numbers with them)."""
+    length: str = Field("m", description="the unit of length, e.g. m, mm, um")
+    force: str = Field("N", description="the unit of force, e.g. N, kN, mN")
+    time: str = Field("s", description="the unit of time, e.g. s, ms, h")
+
+    @field_validator("length", "force", "time")
+    @classmethod
+    def unit_name(cls, value: str) -> str:
+        if not UNIT_NAME.fullmatch(value):
+            raise ValueError("a unit's name is 1 to 8 letters (m, mm, kN, ms, ...), as the images print it")
+        return value
+
+
 class Output(Strict):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
@@ -363,8 +388,12 @@ class Output(Strict):
         PARAMETERS["outFields"].default.split(","), description=PARAMETERS["outFields"].meaning)
     images: bool = Field(True, strict=True, description="render fields.png, contact_line.png, history.png "
                                                         "(and beta_xt.png) after the run")
-    units: Literal["SI", "mm-N-s"] = Field("SI", description="what the images label the numbers with: SI (m, N, "
-                                           "N/m², s) or mm-N-s (mm, N, N/mm² = MPa, s); the solver needs none")
+    units: Annotated[Union[Annotated[Literal["SI", "mm-N-s"], BeforeValidator(_unit_preset), Tag(UNIT_PRESET)],
+                           Annotated[Units, Tag(UNIT_TABLE)]],
+                     Discriminator(lambda value: UNIT_TABLE if isinstance(value, (dict, Units)) else UNIT_PRESET)] = Field(
+        "SI", description="what the images label the numbers with: SI (m, N, N/m², s), mm-N-s (mm, N, N/mm² = MPa, s), "
+                          "or a table of the scene's own { length = ..., force = ..., time = ... } (a stress is then "
+                          "labelled force/length², a force per unit thickness force/length); the solver needs none")
     checkpointEvery: int = field("checkpointEvery")
     checkpointSeconds: float = field("checkpointSeconds")
 
@@ -572,6 +601,9 @@ def _model_at(path: tuple) -> type[BaseModel] | None:
         if part in BOUNDARY_TYPES and model is None:
             model = BOUNDARY_TYPES[part]
             continue
+        if part in (UNIT_PRESET, UNIT_TABLE):
+            model = Units if part == UNIT_TABLE else None
+            continue
         if model is None:
             return None
         fields = getattr(model, "model_fields", {})
@@ -592,7 +624,7 @@ def is_table(value) -> bool:
 def describe(error: dict) -> str:
     """One line naming the key, the value and what is allowed."""
     raw = tuple(error["loc"])
-    location = tuple(part for part in raw if part not in BOUNDARY_TYPES)
+    location = tuple(part for part in raw if part not in BOUNDARY_TYPES and part not in (UNIT_PRESET, UNIT_TABLE))
     key = ".".join(str(part) for part in location) or "scene"
     if error["type"] == "extra_forbidden":
         parent = _model_at(raw[:-1])

@@ -123,9 +123,14 @@ def test_the_images_label_the_scenes_units(tmp_path):
 
     (tmp_path / "scene.toml").write_text('[output]\nunits = "mm-N-s"\n')
     units = units_of(SimpleNamespace(folder=tmp_path))
-    assert units == {"length": "mm", "stress": "MPa", "force": "N/mm"}
+    assert units == {"length": "mm", "stress": "MPa", "force": "N/mm", "time": "s"}
     assert field_titles(units)["vonMises"] == "von Mises stress (MPa)"
     assert units_of(SimpleNamespace(folder=tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
+    # a scene's own set: a stress is force/length², a force per unit thickness force/length
+    (tmp_path / "scene.toml").write_text('[output.units]\nlength = "mm"\nforce = "mN"\ntime = "ms"\n')
+    assert units_of(SimpleNamespace(folder=tmp_path)) == {"length": "mm", "stress": "mN/mm²", "force": "mN/mm", "time": "ms"}
+    (tmp_path / "scene.toml").write_text('[output.units]\nlength = "m$^2$"\n')  # edited by hand: never printed
+    assert units_of(SimpleNamespace(folder=tmp_path))["length"] == "m"
 
 
 def overlap(a, b) -> bool:

@@ -76,6 +76,9 @@ BAD = [
     ("contactTol = 1e-10", "contactTol = 0.0", ["solver.contactTol = 0.0", "greater than 0"]),
     ("[time]", "time = 3\n[timee]", ["time: Input should be a valid dictionary", "timee: unknown key"]),
     ("T = 1.0", "T = 1.0 1.0", ["not valid TOML"]),
+    ("images = true", 'images = true\nunits = "kPa"', ["output.units = 'kPa'", 'give "SI", "mm-N-s", or a table']),
+    ("images = true", 'images = true\nunits = { length = "m^2" }', ["output.units.length = 'm^2'", "1 to 8 letters"]),
+    ("images = true", 'images = true\nunits = { lenght = "mm" }', ["output.units.lenght: unknown key", "'length'"]),
 ]
 
 

@@ -12,7 +12,7 @@ import pytest
 from orchestrate import SceneError, sweep
 from orchestrate.freefem import REPO
 from orchestrate.freefem import InputError
-from orchestrate.plot import history_runs, plot_history
+from orchestrate.plot import history_runs, plot_columns
 from orchestrate.results import load_result
 from orchestrate.sweep import grid_of, parse_grid, plan
 
@@ -270,17 +270,17 @@ def test_history_columns_of_each_run_of_a_sweep_and_of_one_run_are_drawn(glued, 
     runs = history_runs(out)
     assert [label for label, _ in runs] == ["glue.gammaNu = 0.0", "glue.gammaNu = 1.0"]
     assert all(len(load_result(folder).history["forceY1"]) == 20 for _, folder in runs)
-    target = plot_history(out, "forceY1", "t", tmp_path / "force.png")
+    target = plot_columns(out, "forceY1", "t", tmp_path / "force.png")
     assert target.read_bytes().startswith(b"\x89PNG") and target.stat().st_size > 5000
-    single = plot_history(runs[0][1], "contactForce", "normV", tmp_path / "one.svg")
+    single = plot_columns(runs[0][1], "contactForce", "normV", tmp_path / "one.svg")
     assert single.read_text().startswith("<?xml")
-    beside = plot_history(runs[0][1], "betaMean")  # beside the run folder, which holds its manifest's files alone
+    beside = plot_columns(runs[0][1], "betaMean")  # beside the run folder, which holds its manifest's files alone
     assert beside == runs[0][1].parent / f"{runs[0][1].name}-betaMean-vs-t.png"
     load_result(runs[0][1])
     with pytest.raises(InputError, match=r"--y forceZ1: not a column of history.csv \(columns: n, t, normV"):
-        plot_history(out, "forceZ1", "t", tmp_path / "x.png")
+        plot_columns(out, "forceZ1", "t", tmp_path / "x.png")
     with pytest.raises(InputError, match=r"--x time: not a column of history.csv"):
-        plot_history(runs[0][1], "normV", "time", tmp_path / "x.png")
+        plot_columns(runs[0][1], "normV", "time", tmp_path / "x.png")
 
 
 def test_a_sweep_row_naming_a_folder_its_record_does_not_list_is_not_read(glued, tmp_path):

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from orchestrate.cli.options import add_force_argument
-from orchestrate.plot import MEASURED, is_sweep, plot_history, plot_sweep, read_sweep
+from orchestrate.plot import MEASURED, is_sweep, plot_columns, plot_sweep, read_sweep
 
 NAME, HELP = ("plot", "draw a sweep's final figure against a swept value, or two history columns of a run (or of "
                       "each run of a sweep) against each other")
@@ -27,6 +27,6 @@ def command(options) -> int:
     if is_sweep(options.source) and options.y in MEASURED and (options.x is None or options.x in read_sweep(options.source)[0]):
         target = plot_sweep(options.source, options.y, options.x, options.out, options.log, force=options.force)
     else:
-        target = plot_history(options.source, options.y, options.x or "t", options.out, options.log, force=options.force)
+        target = plot_columns(options.source, options.y, options.x or "t", options.out, options.log, force=options.force)
     print(f"image: {target}")
     return 0
