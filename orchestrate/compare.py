@@ -170,6 +170,7 @@ class Comparison:
     nested: bool                         # the other run's meshes nest in the reference's: exact figures
     rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta
     parameters: dict[str, tuple] = field(default_factory=dict)
+    meshes: list[dict] = field(default_factory=list)  # per body: nodes and triangles of a and b, same (one mesh)
 
     def maximum(self, quantity: str) -> float:
         """The largest distance over the common times (Theorem 2.1's norm of the seed: max in time)."""
@@ -183,6 +184,9 @@ class Comparison:
         reference = self.a if self.reference == "a" else self.b
         lines = [f"A: {self.a.folder}", f"B: {self.b.folder}"]
         lines += [f"  {name}: {value_a} (A), {value_b} (B)" for name, (value_a, value_b) in self.parameters.items()]
+        lines += [f"  body {body} mesh: " + ("the same, " if mesh["same"] else "") +
+                  f"{mesh['nodes'][0]} nodes, {mesh['triangles'][0]} triangles (A); "
+                  f"{mesh['nodes'][1]} nodes, {mesh['triangles'][1]} triangles (B)" for body, mesh in enumerate(self.meshes, 1)]
         lines.append(f"integrated on the meshes of {self.reference.upper()} ({reference.folder.name}); "
                      + ("the other's meshes nest in them: the figures are exact" if self.nested else
                         "the other's meshes do not nest in them: its interpolation error is part of the figures"))
@@ -217,7 +221,15 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     nested = all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
     ordered = [(second, first) for first, second in pairs] if reference == "a" else pairs
     rows = pair_distances(run, ref, ordered)
-    return Comparison(a, b, reference, nested, rows, differing_parameters(a, b))
+    return Comparison(a, b, reference, nested, rows, differing_parameters(a, b), mesh_differences(meshes[a], meshes[b]))
+
+
+def mesh_differences(first: list, second: list) -> list[dict]:
+    """Per body, the node and triangle counts of two runs' meshes and whether they are one mesh
+    (the same nodes and triangles, in the same order)."""
+    return [{"nodes": (len(p), len(q)), "triangles": (len(s), len(t)),
+             "same": p.shape == q.shape and s.shape == t.shape and bool((p == q).all() and (s == t).all())}
+            for (p, s), (q, t) in zip(first, second)]
 
 
 FILES = ("comparison.csv", "report.txt", "history.png")

@@ -114,5 +114,30 @@ def test_compare_of_two_levels_gives_the_time_ladders_distances(quick, tmp_path,
     assert compare(middle, coarse).reference == "a"  # the same meshes: the run with more steps
     assert main(["compare", str(coarse), str(middle), "--out", str(coarse)]) == 2  # a run folder: refused
     assert main(["compare", str(coarse), str(middle), "--out", str(tmp_path)]) == 0
-    assert "the figures are exact" in capsys.readouterr().out
+    report = capsys.readouterr().out
+    assert "the figures are exact" in report
+    assert all(f"body {body} mesh: the same, " in report for body in (1, 2))  # a time ladder keeps its meshes
     assert (tmp_path / "history.png").stat().st_size > 10000 and (tmp_path / "comparison.csv").read_text().count("\n") == 1 + rows[0]["N"]
+
+
+def test_compare_lists_how_the_meshes_differ(quick):
+    """Two levels of the space ladder: the report gives each body's node and triangle counts, as
+    the mesh files hold them (read here by meshio, another reader)."""
+    import meshio
+
+    from orchestrate.compare import compare
+    from orchestrate.results import load_result
+
+    out, _ = quick
+    def nodes(folder):
+        return len(meshio.read(load_result(folder).mesh_file(1)).points)
+
+    coarse, fine = sorted((out / "runs" / "space").iterdir(), key=nodes)[:2]
+    comparison = compare(coarse, fine)
+    for body, mesh in enumerate(comparison.meshes, 1):
+        counts = [(len(read.points), len(read.cells_dict["triangle"]))
+                  for read in (meshio.read(load_result(run).mesh_file(body)) for run in (coarse, fine))]
+        assert mesh["nodes"] == (counts[0][0], counts[1][0]) and mesh["triangles"] == (counts[0][1], counts[1][1])
+        assert not mesh["same"] and mesh["nodes"][0] < mesh["nodes"][1]
+        assert (f"body {body} mesh: {counts[0][0]} nodes, {counts[0][1]} triangles (A); {counts[1][0]} nodes, "
+                f"{counts[1][1]} triangles (B)") in comparison.report()
