@@ -138,7 +138,8 @@ def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | 
     file or with `force` an image this program drew; log is "none", "x", "y" or "xy"."""
     source = Path(source)
     if target is None:
-        target = source / f"{y}-vs-{x}.png" if is_sweep(source) else source.parent / f"{source.name}-{y}-vs-{x}.png"
+        folder = source.resolve()  # "." names its folder too
+        target = folder / f"{y}-vs-{x}.png" if is_sweep(folder) else folder.parent / f"{folder.name}-{y}-vs-{x}.png"
     target = Path(target)
     if target.suffix not in FORMATS:
         raise InputError(f"--out {target}: give a file name ending in {', '.join(FORMATS)}")

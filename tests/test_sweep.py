@@ -263,7 +263,7 @@ def glued(tmp_path_factory):
     return out
 
 
-def test_history_columns_of_each_run_of_a_sweep_and_of_one_run_are_drawn(glued, tmp_path):
+def test_history_columns_of_each_run_of_a_sweep_and_of_one_run_are_drawn(glued, tmp_path, monkeypatch):
     """`plot SOURCE --y COLUMN --x COLUMN`: a curve per completed run (labelled by its swept values,
     the failed one left out), or one run's alone; the columns must be the history's."""
     out = glued
@@ -276,6 +276,9 @@ def test_history_columns_of_each_run_of_a_sweep_and_of_one_run_are_drawn(glued, 
     assert single.read_text().startswith("<?xml")
     beside = plot_columns(runs[0][1], "betaMean")  # beside the run folder, which holds its manifest's files alone
     assert beside == runs[0][1].parent / f"{runs[0][1].name}-betaMean-vs-t.png"
+    load_result(runs[0][1])
+    monkeypatch.chdir(runs[0][1])  # the run folder as ".": still beside it
+    assert plot_columns(".", "betaMin") == runs[0][1].parent / f"{runs[0][1].name}-betaMin-vs-t.png"
     load_result(runs[0][1])
     with pytest.raises(InputError, match=r"--y forceZ1: not a column of history.csv \(columns: n, t, normV"):
         plot_columns(out, "forceZ1", "t", tmp_path / "x.png")
