@@ -79,22 +79,27 @@ static long strainOperators(Matrice_Creuse<double>* const& Dx, Matrice_Creuse<do
   return x->n;
 }
 
-// The operator's arrays checked against each other and the sizes of a call; each entry's node is
-// checked as the loops read it (a bad one stops the run, never reads outside u or the force).
+// The operator's arrays checked against each other and the sizes of a call; each point's entries
+// and each entry's node are checked as the loops read them (a bad one stops the run, never reads
+// outside the arrays, u or the force).
 struct Operator {
   const long* start;
   const long* node;
   const double* gradient;
-  long points;
+  long points, entries;
   unsigned long lastNode;  // a node's x-dof lies in [0, dofs − 2]
   Operator(const KN<long>& s, const KN<long>& n, const KN<double>& g, long dofs, const char* who) {
     points = s.N() - 1;
     if (points < 0 || s[0] != 0 || s[points] != n.N() || g.N() != 2*n.N() || dofs < 2)
       ExecError(std::string(who) + ": rowStart, node and gradient are not an operator strainOperators made");
-    for (long p = 0; p < points; p++)
-      if (s[p + 1] < s[p]) ExecError(std::string(who) + ": rowStart is not increasing");
+    entries = n.N();
     start = &s[0]; node = n.N() ? &n[0] : 0; gradient = g.N() ? &g[0] : 0;
     lastNode = static_cast<unsigned long>(dofs - 2);
+  }
+  // Point p's entries, checked as the loops reach them: an end before its start would skip them.
+  long end(long p, const char* who) const {
+    if (start[p + 1] < start[p] || start[p + 1] > entries) ExecError(std::string(who) + ": rowStart does not increase from 0 to the number of entries");
+    return start[p + 1];
   }
   long at(long q, const char* who) const {
     if (static_cast<unsigned long>(node[q]) > lastNode) ExecError(std::string(who) + ": a node lies outside the displacement's dofs");
@@ -113,7 +118,7 @@ static long strainsOf(KN<long>* const& rowStart, KN<long>* const& node, KN<doubl
   const double* uu = &(*u)[0];
   for (long p = 0; p < op.points; p++) {
     double a = 0, b = 0, g = 0;
-    for (long q = op.start[p]; q < op.start[p + 1]; q++) {
+    for (long q = op.start[p], end = op.end(p, "strainsOf"); q < end; q++) {
       const long d = op.at(q, "strainsOf");
       const double gx = op.gradient[2*q], gy = op.gradient[2*q + 1], ux = uu[d], uy = uu[d + 1];
       a += gx*ux;
@@ -135,7 +140,7 @@ static long stressForce(KN<long>* const& rowStart, KN<long>* const& node, KN<dou
   std::fill(f, f + force->N(), 0.);
   for (long p = 0; p < op.points; p++) {
     const double w = (*weight)[p], a = w*(*s11)[p], b = w*(*s22)[p], c = w*(*s12)[p];
-    for (long q = op.start[p]; q < op.start[p + 1]; q++) {
+    for (long q = op.start[p], end = op.end(p, "stressForce"); q < end; q++) {
       const long d = op.at(q, "stressForce");
       const double gx = op.gradient[2*q], gy = op.gradient[2*q + 1];
       f[d] += gx*a + gy*c;
