@@ -26,7 +26,7 @@ BODIES = (1, 2)
 # Each scheme's entries as FreeFEM variables (schemes.idp) and their type there.
 SCHEME_KEYS = {"order": "int", "viscousWeight": "real", "elasticImplicit": "bool", "levels": "int",
                "rateWeights": "real[int]", "extrapolation": "real[int]", "elasticBound": "real",
-               "sourceLimit": "real", "glueLimit": "real", "certainLimit": "real"}
+               "sourceLimit": "real", "adhesionImplicit": "bool", "glueLimit": "real", "certainLimit": "real"}
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,9 @@ def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict]]:
             length = len(scheme[key]) if kind == "real[int]" and isinstance(scheme[key], list) else 1
             if not SCHEME_CHECKS[kind](scheme[key]) or length != LENGTHS.get(key, 1):
                 raise ValueError(f"{path}: scheme {name}: {key} = {scheme[key]!r} is not {SCHEME_SHAPES.get(key, kind)}")
+        if scheme["levels"] == 2 and not scheme["adhesionImplicit"]:  # the libraries' explicit adhesion is one-level
+            raise ValueError(f"{path}: scheme {name} has two levels and adhesionImplicit = false: only a one-level scheme"
+                             " takes the glue and the bonding explicitly")
     return rows, schemes
 
 

@@ -129,6 +129,8 @@ def crossing(s: np.ndarray, beta: np.ndarray) -> float:
 def test_the_debonding_front_is_where_beta_crosses_one_half(tmp_path):
     history, state = joint(tmp_path, "front", 1.0, False)
     front = history["debondFront"]
-    assert front[0] == pytest.approx(4.5, abs=1e-6)  # scenes/precrack.toml: bonded where x < 4.5 (after step 1)
+    # scenes/precrack.toml: bonded where x < 4.5; after step 1, whose implicit bonding acts on u¹, the
+    # tip's segment has lost a little of its β, which moves the front by a fraction of a segment (0.075)
+    assert front[0] == pytest.approx(4.5, abs=1e-3)
     assert (np.diff(front) <= 1e-12).all() and front[-1] < 4.0  # it recedes, and far
     assert front[-1] == pytest.approx(crossing(state["s"], state["beta"]), rel=1e-12)

@@ -41,7 +41,10 @@ def test_measurements_are_consistent(quick):
         # a step does at least the back-substitutions it cannot avoid, the first and every later one
         assert row["overheadRatio"] > 1 and row["laterOverheadRatio"] > 1
         assert row["wall"] > row["loop"] + row["output"] and row["loop"] > 0 and row["startup"] > 0
-        assert 0 < row["setupMemoryMB"] <= row["peakMemoryMB"] and row["columns"] >= 0
+        # VmHWM, read twice: the kernel's RSS counters are approximate (per-CPU and per-thread
+        # batches, and the implicit glue's LAPACK runs threads), so the later reading can fall below
+        # the earlier one (measured: 8 kB, 84 kB, 289 kB)
+        assert 0 < row["setupMemoryMB"] <= row["peakMemoryMB"] + 1 and row["columns"] >= 0
     for family in ("uniform", "graded"):
         for scheme in SCHEMES:
             errors = [row["errorToReference"] for row in rows if row["variant"] == f"{scheme}, {family}"]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from conftest import SCENES, gmsh_mesh, solve_ok
+from conftest import SCENES, gmsh_mesh, solve, solve_ok
 from orchestrate.results import cell_field
 
 pytestmark = pytest.mark.solver
@@ -153,6 +153,25 @@ def test_creep_follows_the_scalar_recursion(blocks):
             np.testing.assert_allclose(cell_field(mesh, "sigma22"), syy, rtol=1e-10)
             np.testing.assert_allclose(cell_field(mesh, "sigma11"), sxx, rtol=0, atol=1e-10 * scale)
             np.testing.assert_allclose(cell_field(mesh, "sigma12"), 0.0, rtol=0, atol=1e-10 * scale)
+
+
+def test_a_damage_step_past_its_active_set_iterations_is_finished_by_projected_gauss_seidel(tmp_path):
+    """damageMaxIt = 1: a damage step whose active sets change (ζ ≤ 1 leaves body 1's nodes as the
+    damage grows) needs a second iteration, so the driver finishes it by projected Gauss–Seidel
+    (the path a cycling active set takes), says so, and still follows the creep recursion."""
+    from orchestrate.manifest import facts
+
+    upper = gmsh_mesh("meshes/rectangle.geo", tmp_path / "upper.msh", x1=2, y0=0, y1=1, n=7)
+    lower = gmsh_mesh("meshes/rectangle.geo", tmp_path / "lower.msh", x1=2, y0=-1, y1=0, n=11)
+    done, result = solve(tmp_path / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", N, "-outTimes", "none",
+                         "-contactTol", 1e-14, "-damageMaxIt", 1, *BODIES[0].flags(1), *BODIES[1].flags(2),
+                         scene=SCENES / "blocks.idp")
+    assert done.returncode == 0, done.error_line
+    assert facts(result.folder)["damageFallbacks"] >= 1
+    assert "solved by projected Gauss-Seidel" in done.stdout
+    expected = creep_recursion()
+    np.testing.assert_allclose(result.history["normV"], [step["normV"] for step in expected], rtol=1e-10)
+    np.testing.assert_allclose(result.history["zetaMin1"], [step["zeta"][0] for step in expected], rtol=0, atol=1e-10)
 
 
 @pytest.mark.parametrize("n, split", [((5, 8), False), ((7, 11), True)], ids=["not-nested", "nested"])

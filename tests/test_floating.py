@@ -153,3 +153,19 @@ def test_a_light_force_on_a_curved_floating_body_touching_at_one_node_is_held(tm
     x, descent = cylinder.points[top, 0], cylinder.point_data["u"][top, 1]
     level, tilt = np.linalg.lstsq(np.column_stack([np.ones_like(x), x]), descent, rcond=None)[0]
     assert level < 0 and abs(tilt) * 8.0 < 0.01 * abs(level)
+
+
+@pytest.mark.parametrize("scheme", ["semi-implicit", "bdf2"])
+def test_a_block_held_by_the_glue_alone_carries_the_pull(tmp_path, scheme):
+    """The upper block free to move vertically, pulled up by fy = q on its top and held by the glue
+    alone (implicit in these schemes, docs/model.md §9; no debonding: m_d = 0): at every step its
+    balance makes the glue's pull on it −q per unit length, and the interface stays open."""
+    path = stacked_blocks(tmp_path, pressure=Q, steps=6)
+    text = path.read_text().replace('[glue]\nbeta0 = 0.0\ngammaR = 0.0\n',
+                                    '[glue]\nbeta0 = 1.0\ngammaR = 0.0\ngammaNu = 50.0\npTau = 20.0\nL = 1.0\n'
+                                    'debondMobility = 0.0\n')
+    path.write_text(text.replace('scheme = "semi-implicit"', f'scheme = "{scheme}"'))
+    history = run(path, tmp_path / "run").history
+    np.testing.assert_allclose(history["forceY2"], -Q, rtol=1e-9)
+    np.testing.assert_allclose(history["forceY1"], Q, rtol=1e-9)
+    assert np.all(history["contactForce"] == 0) and np.all(history["gapMax"] < 0)

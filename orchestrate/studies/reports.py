@@ -210,8 +210,9 @@ def glue_section(glue: list[dict]) -> list[str]:
         "Tangential glue term",
         "scenes/shear.toml (n = 8/11) with γ_ν = 0 (the glue never debonds), E = 10 in both bodies (the "
         "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
-        "limit/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration with the scheme's own K (docs/model-choices.md, "
-        "\"Explicit glue\"); limit 2 (euler, semi-implicit) or 8/9 (bdf2).", "p_τ", "predicted limit/ρ_τ", glue,
+        "2/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration with the scheme's own K (docs/model-choices.md, "
+        "\"Explicit glue\"). The paper's scheme only: semi-implicit and bdf2 take the glue implicit, inside the "
+        "contact problem (docs/model.md §11(b)), and have no glue bound.", "p_τ", "predicted limit/ρ_τ", glue,
         ".4g")
 
 
