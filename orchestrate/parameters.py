@@ -12,8 +12,9 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated, Literal, Union
 
-from pydantic import Field
+from pydantic import BeforeValidator, Field
 
 from orchestrate.expr import number_code
 from orchestrate.freefem import REPO
@@ -26,7 +27,7 @@ BODIES = (1, 2)
 # Each scheme's entries as FreeFEM variables (schemes.idp) and their type there.
 SCHEME_KEYS = {"order": "int", "viscousWeight": "real", "elasticImplicit": "bool", "levels": "int",
                "rateWeights": "real[int]", "extrapolation": "real[int]", "elasticBound": "real",
-               "sourceLimit": "real", "adhesionImplicit": "bool", "glueLimit": "real", "certainLimit": "real"}
+               "sourceLimit": "real", "adhesionImplicit": "bool", "glueLimit": "real"}
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,25 @@ def field(name: str, **extra):
     return Field(parameter.value(), description=description, **parameter.bounds, **options, **extra)
 
 
+def unbounded_field(name: str):
+    """The type and Field of a real whose range is closed at infinity ("[0, inf]"): a finite number
+    in the range, or the text "inf" (JSON and TOML have no infinite number)."""
+    parameter = PARAMETERS[name]
+    low = parameter.bounds.get("ge", parameter.bounds.get("gt"))
+
+    def validate(value):
+        if value == "inf":
+            return value
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
+                or value < low or (value == low and "gt" in parameter.bounds):
+            raise ValueError(f'give a number in {parameter.range} or "inf"')
+        return float(value)
+
+    description = f"{parameter.meaning} [{parameter.unit}]"
+    return Annotated[Union[float, Literal["inf"]], BeforeValidator(validate),
+                     Field(parameter.value(), description=description)]
+
+
 def scene_value(data: dict, dotted: str):
     """The value at a dotted key of a scene's dump (a list element by its index: boundary.1.fy)."""
     node = data
@@ -150,7 +170,9 @@ def driver_values(scene_data: dict) -> dict[str, float | int | str]:
         for name, key in zip(parameter.driver_names(), keys):
             value = scene_value(scene_data, key)
             if parameter.type == "real" and isinstance(value, str):
-                continue  # initial data given by position: an expression, written as a macro (scene.py)
+                if value == "inf":  # a range closed at infinity (unbounded_field): the driver reads the word
+                    values[name] = value
+                continue  # else initial data given by position: an expression, written as a macro (scene.py)
             if isinstance(value, bool):
                 value = int(value)
             elif isinstance(value, list):

@@ -79,6 +79,9 @@ def bodies_at(result: Result, time: float | None = None) -> tuple[float, list]:
     return chosen, [result.fields(part, chosen) for part in ("body1", "body2")]
 
 
+UNIFORM = 1e-12  # a damage field that varies less than this never moved from its ζ⁰
+
+
 def colour_range(values: np.ndarray, floor: float = 1e-6) -> tuple[float, float]:
     """The field's min–max, widened to at least `floor` times its magnitude: a field uniform to
     round-off (the patch test's) then shows as one colour, not as its magnified rounding noise."""
@@ -188,6 +191,8 @@ def render_fields(result: Result, target: Path, *, time: float | None = None, fi
             limits = [given[field]] * 2
         elif ranges == "per-body":
             limits = [centred(colour_range(v)) if signed else colour_range(v) for v in values]
+        elif field == "zeta" and np.ptp(np.concatenate(values)) <= UNIFORM:
+            limits = [(0.0, 1.0)] * 2  # undamaged (or uniformly damaged): on the whole scale of ζ
         else:
             whole = colour_range(np.concatenate(values))
             limits = [centred(whole) if signed else whole] * 2
@@ -316,7 +321,11 @@ def plot_history(runs: Result | dict[str, Result], target: Path, dpi: int = 110)
             for style, (label, result) in zip(("-", "--", ":", "-."), runs.items()):
                 h = result.history
                 axis.plot(h["t"], h[column], style, color=f"C{colour}", label=f"{column} ({label})" if label else column)
-        steady_axis(axis, np.concatenate([result.history[column] for column in columns for result in runs.values()]))
+        series = np.concatenate([result.history[column] for column in columns for result in runs.values()])
+        if columns[0] == "zetaMin1" and np.ptp(series) <= UNIFORM:
+            axis.set_ylim(-0.05, 1.05)  # ζ that never moved: on its whole scale, not its round-off's
+        else:
+            steady_axis(axis, series)
         axis.set_title(title, fontsize=10)
         if len(columns) > 1 or len(runs) > 1:
             axis.legend(fontsize=8)

@@ -26,7 +26,7 @@ from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import TIME_LIMIT, geo_constants
-from orchestrate.parameters import PARAMETERS, driver_values, field
+from orchestrate.parameters import PARAMETERS, driver_values, field, unbounded_field
 
 
 class SceneError(InputError):
@@ -313,7 +313,7 @@ class Glue(Strict):
     gammaNu: float = field("gammaNu")
     gammaR: float = field("gammaR")
     pTau: float = field("pTau")
-    debondMobility: float = field("debondMobility")
+    debondMobility: unbounded_field("debondMobility")
     adhesionEnergy: float = field("adhesionEnergy")
     shearDebonding: bool = field("shearDebonding")
     L: float = field("L")

@@ -141,6 +141,9 @@ def test_creep_follows_the_scalar_recursion(blocks):
     history = blocks.history
     pressure = np.array([step["pressure"] for step in expected])
     np.testing.assert_allclose(history["contactForce"], pressure * WIDTH, rtol=1e-10)
+    # the reactions of the paper's scheme (explicit elasticity): the pushed top and the held bottom
+    np.testing.assert_allclose(history["reactionY1_3"], -pressure * WIDTH, rtol=1e-10)
+    np.testing.assert_allclose(history["reactionY2_1"], pressure * WIDTH, rtol=1e-10)
     np.testing.assert_allclose(history["normV"], [step["normV"] for step in expected], rtol=1e-10)
     np.testing.assert_allclose(history["zetaMin1"], [step["zeta"][0] for step in expected], rtol=0, atol=1e-10)
     np.testing.assert_allclose(history["zetaMin2"], [step["zeta"][1] for step in expected], rtol=0, atol=1e-10)

@@ -217,6 +217,24 @@ def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):
     assert np.all(np.diff(fronts) <= 0) and fronts[-1] < 4.5 - 0.5, f"the front must move left: {fronts}"
 
 
+def test_the_joint_peels_from_its_tip_and_its_reaction_is_the_glue_s_pull(tmp_path):
+    """The polymer layer peeled off aluminium (scenes/joint.toml), coarser: the layer is held only at
+    its peeled end, so that end's reaction balances the glue's pull across Γ_C at every step; the
+    crack runs left from the pre-crack's tip (x = 27) once the force has risen, only left, while the
+    far end stays bonded; and the energies balance to the time error (no damage, no rebonding, the
+    openings below L)."""
+    result = coarse("joint", tmp_path, **{"body1.mesh.n": 60, "body2.mesh.n": 30, "time.N": 100})
+    h = result.history
+    np.testing.assert_allclose(h["reactionX1_2"] + h["forceX1"], 0, atol=1e-9 * np.abs(h["reactionY1_2"]).max())
+    np.testing.assert_allclose(h["reactionY1_2"] + h["forceY1"], 0, atol=1e-9 * np.abs(h["reactionY1_2"]).max())
+    front = h["debondFront"]
+    assert front[0] == pytest.approx(27, abs=0.05) and np.all(np.diff(front) <= 1e-12) and front[-1] < 24
+    started = np.argmax(front < 26.9)
+    assert h["reactionY1_2"][started] > 0.5 * h["reactionY1_2"].max()  # the force had risen first
+    assert h["betaMax"][-1] == 1 and h["surfaceEnergy"][-1] > 0
+    assert np.abs(h["energyBalance"][10:]).max() < 1e-2
+
+
 def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
     """`python -m orchestrate gallery` as a user runs it: every scene of docs/gallery.md, its
     images and its invariants."""
@@ -233,6 +251,8 @@ def test_the_gallery_command_runs_every_scene_at_its_own_resolution(tmp_path):
     assert not (tmp_path / "punch" / "beta_xt.png").exists()  # no glue (β⁰ = 0, no rebonding): no β to show
     for image in ("pressure.png", "vonmises.png"):  # Hertz against the analytic solution
         assert (tmp_path / "hertz" / image).stat().st_size > 10_000
+    for image in ("joint-reactionY1_2-vs-t.png", "joint-debondFront-vs-t.png"):  # the joint's curves
+        assert (tmp_path / image).stat().st_size > 10_000
 
 
 def test_the_polymer_pad_runs_stiff_materials_in_few_steps_to_its_target(tmp_path):

@@ -186,8 +186,8 @@ def test_the_bonding_step_s_positivity_level_is_printed_and_its_breach_named(tmp
 
     peel = REPO / "scenes" / "peel.toml"
     quiet = {"glue.pTau": 0.0, "time.N": 40, "output.times": "none", "output.images": False}
-    with pytest.raises(SolverError) as stopped:
-        run(peel, tmp_path / "euler", {**quiet, "time.scheme": "euler"})
+    with pytest.raises(SolverError) as stopped:  # above the normal glue's own bound, allowed (test_stress.py)
+        run(peel, tmp_path / "euler", {**quiet, "time.scheme": "euler", "solver.allowUnstable": True})
     assert stopped.value.returncode == 5
     assert "the explicit bonding step overshoots where the opening exceeds 0.447214" in stopped.value.message
     assert "N >= 50 keeps beta >= 0" in stopped.value.message

@@ -59,15 +59,33 @@ def test_glue_that_debonds_the_whole_interface_before_the_end(pulled_blocks):
     assert h["betaMax"][-2] < 0.01
 
 
-@pytest.mark.parametrize("gammaNu, symptom", [(1e4, "the explicit terms diverge"), (1e3, "alternated in sign")])
-def test_glue_too_stiff_for_the_explicit_scheme_stops_with_the_reason(pulled_blocks, gammaNu, symptom):
-    """Stiff normal glue at N = 40 pulls Γ_C shut, contact stops it, the glue pulls again: the
-    run chatters, with γ_ν = 1e3 inside bounds the truncation R keeps (no growth to catch)."""
+def test_a_normal_glue_above_its_bound_is_refused_naming_the_steps(pulled_blocks):
+    """γ_ν = 1e4 on the pulled blocks at N = 40: kρ_ν = 15.6, refused before the first step with the
+    smallest N of the explicit normal glue's bound (docs/model.md §7); allowed anyway, the run
+    diverges at once and says which terms are over their bounds."""
     folder, upper, lower = pulled_blocks
-    done, result = solve(folder / f"stiff{gammaNu:g}", "-mesh1", upper, "-mesh2", lower, "-gammaNu", gammaNu,
+    done, _ = solve(folder / "refused", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1e4, scene=SCENES / "pull.idp")
+    assert done.returncode == 3 and "exceeds the explicit normal glue bound 2/rho_nu" in done.error_line
+    assert "use N >= 313" in done.error_line
+    done, result = solve(folder / "allowed", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1e4, "-allowUnstable", 1,
                          scene=SCENES / "pull.idp")
-    assert done.returncode == 5 and symptom in done.error_line, done.error_line
+    assert done.returncode == 5 and "the explicit terms diverge" in done.error_line
+    assert "normal glue k rho_nu = 15.6" in done.error_line and "each bound holds from N >= 313" in done.error_line
+
+
+def test_glue_between_its_bound_and_the_sum_chatters_and_the_stop_names_the_steps(pulled_blocks):
+    """γ_ν = 1e3 at N = 40: kρ_ν = 1.56 is within the normal glue's own bound, but with the elastic
+    term (kρ = 0.96) it is not, and where Γ_C opens uniformly the two share their mode: the glue pulls
+    Γ_C shut, contact stops it, the glue pulls again. The chatter check stops the run, naming the
+    terms and the N for which they are stable together (51); that N runs."""
+    folder, upper, lower = pulled_blocks
+    done, result = solve(folder / "chatter", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1e3,
+                         scene=SCENES / "pull.idp")
+    assert done.returncode == 5 and "alternated in sign" in done.error_line, done.error_line
+    assert "normal glue k rho_nu = 1.56" in done.error_line
+    assert "all of them together for certain from N >= 51" in done.error_line
     assert len(result.history["t"]) < 40
+    solve_ok(folder / "stable", "-mesh1", upper, "-mesh2", lower, "-gammaNu", 1e3, "-N", 51, scene=SCENES / "pull.idp")
 
 
 @pytest.mark.parametrize("omega", [0.1, 1, 10, 100])

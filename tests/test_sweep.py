@@ -34,7 +34,7 @@ def test_each_run_has_its_folder_and_one_failure_does_not_stop_the_others(first)
     status = {row["glue.gammaNu"]: row["status"] for row in rows}
     assert status == {0.0: "completed", 1.0: "completed", 2.0: "completed", 1e7: "failed"}
     failed = next(row for row in rows if row["status"] == "failed")
-    assert "SolverError" in failed["error"] and "exit 5" in failed["error"]
+    assert "SolverError" in failed["error"] and "exit 3" in failed["error"] and "normal glue bound" in failed["error"]
     for row in rows:
         assert (out / row["folder"] / "history.csv").exists() == (row["status"] == "completed")
     assert (out / (failed["folder"] + ".failed") / "run.log").exists()

@@ -23,6 +23,9 @@ meshes' grading changed, issue 16), in the commit that replaced that record. It 
 fact here: the code as it was. Make it anew only with a change that is meant to alter results, and
 say so in that commit.
 
+History columns added since (debondFront, the reactions reactionXℓ_L, reactionYℓ_L, the energies) were added alone,
+each after every recorded number had been checked against the record with the new code.
+
 The runs condense the contact problem with the dense columns of K⁻¹Cᵀ, one at a time
 (solver.condensation = "columns", solver.columnBlock = 1), as the code of the record did; the
 defaults, blocks of columns and the factor's halves, change the last bits only
@@ -59,7 +62,8 @@ RECORD_SCHEME = {"time.scheme": "euler"}  # every scene's when the record was ma
 SCENE_CASES = {
     "paper": {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20},
     "paper_graded": {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 20},
-    "peel": {"body1.mesh.n": 20, "body2.mesh.n": 27},
+    # above euler's normal glue bound (derived after the record was made): allowed, the same run
+    "peel": {"body1.mesh.n": 20, "body2.mesh.n": 27, "solver.allowUnstable": True},
     "indentation": {"body1.mesh.n": 6, "body2.mesh.n": 8},
     "shear": {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 40},  # the scene's N of the record
     "tilted_patch": {"body1.mesh.n": 6, "body2.mesh.n": 9},

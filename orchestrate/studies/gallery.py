@@ -4,11 +4,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from orchestrate.freefem import REPO
+from orchestrate.plot import plot_columns
 from orchestrate.runner import refuse_existing, run
 from orchestrate.scene import SceneError
 from orchestrate.studies.hertz import gallery_figures
 
-SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad", "hertz", "punch", "precrack")
+SCENES = ("paper", "peel", "indentation", "shear", "tilted_patch", "polymer_pad", "hertz", "punch", "precrack",
+          "joint")
+# The joint's own curves, beside its folder (plot's default): the peeling force and the crack tip.
+JOINT_CURVES = ("reactionY1_2", "debondFront")
 
 
 def gallery(names, out: str | Path, force: bool = False, progress: bool = False) -> dict[str, Path]:
@@ -24,4 +28,7 @@ def gallery(names, out: str | Path, force: bool = False, progress: bool = False)
         result = run(REPO / "scenes" / f"{name}.toml", folder, force=force, progress=progress)
         if name == "hertz":  # its comparison with the analytic solution, as in results/hertz
             gallery_figures(result, result.folder)
+        if name == "joint":
+            for column in JOINT_CURVES:
+                plot_columns(result.folder, column, force=True)
     return folders

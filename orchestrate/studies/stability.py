@@ -1,7 +1,7 @@
 """Stability study: python -m orchestrate study stability [SCENE].
 
 The explicit terms bound the time step (docs/model.md §7): the elastic k* = 2/ρ and, with tangential
-glue, 2/ρ_τ (the paper's scheme; the others take the glue implicit, docs/model.md §11). For several
+glue, 2/ρ_τ and 2/ρ_ν (the paper's scheme; the others take the glue implicit, docs/model.md §9). For several
 data the bound the driver predicts (its run facts) is set against the threshold observed by
 bisection on N, over a horizon where the loads are held, so a stable run only creeps and an
 unstable one grows or is stopped by the driver's growth and chatter checks.
@@ -33,7 +33,14 @@ GLUE_ALONE = {"time.scheme": "euler", "body1.mesh.n": 8, "body2.mesh.n": 11, "gl
               "body1.material.E": 10.0,
               "body2.material.E": 10.0, "body1.boundary.0.value": "0.2*min(t, 1)",
               "body1.boundary.1.value": "0.2*min(t, 1)"}
-ELASTIC, GLUE, SOURCE = "kStar", "rhoTau", "zetaCritical1"  # the run facts (run.json) of the bounds
+ELASTIC, GLUE, NORMAL, SOURCE = "kStar", "rhoTau", "rhoNu", "zetaCritical1"  # the run facts (run.json) of the bounds
+# The same set-up for the normal glue: the top's lift opens Γ_C, p_τ = 0 and no debonding (m_d = 0),
+# so γ_ν β² (−R(g_h))₊ is a linear spring on the opening (below L).
+NORMAL_ALONE = {**GLUE_ALONE, "glue.pTau": 0.0, "glue.debondMobility": 0.0}
+# Above its bound the normal glue pulls Γ_C shut and the contact stops it: the runs chatter, bounded,
+# and only the chatter check (ten alternating steps) sees it, so the horizon holds many steps even
+# where the observed threshold lies far above the predicted one.
+NORMAL_HORIZON = 50.0
 IMPLICIT = ("semi-implicit", "bdf2")
 # The damage source alone: no loads (u stays 0), λ_u = 0, so a uniform ζ obeys the scalar law
 # ζ' = λ_D (1 − ζ)/ζ + λ_w with the equilibrium ζ_eq = λ_D/(λ_D − λ_w) = 0.1, started 1 % above it
@@ -48,13 +55,13 @@ FILES = ("stability.csv", "README.md", "stability.png")
 def predicted_bound(folder: Path, fact: str, k: float) -> float | None:
     """A bound as the driver computed it (run.json, written at set-up) in the last run into
     `folder` (time step k), which may have stopped (runner.run leaves `<folder>.failed` then, and
-    removes it when a run succeeds): k* itself; glueLimit/ρ_τ (None without tangential glue); or
+    removes it when a run succeeds): k* itself; glueLimit/ρ_τ or glueLimit/ρ_ν (None without that glue); or
     the step at which the damage source's level ζc = sqrt(k λ_D/limit) reaches ζ_eq,
     k (ζ_eq/ζc)²."""
     failed = folder.with_name(folder.name + ".failed")
     facts = read_json((failed if failed.exists() else folder) / "run.json")
     value = facts.get(fact)
-    if fact == GLUE:
+    if fact in (GLUE, NORMAL):
         return facts["glueLimit"] / value if value else None
     if fact == SOURCE:
         return k * (ZETA_EQUILIBRIUM / value) ** 2
@@ -102,16 +109,17 @@ def smallest_stable_steps(scene_path, overrides: dict, folder: Path, guess: int,
     return high
 
 
-def threshold(scene_path, overrides: dict, folder: Path, fact: str, progress: bool = False) -> dict:
+def threshold(scene_path, overrides: dict, folder: Path, fact: str, progress: bool = False,
+              shortest: float = 5.0) -> dict:
     """The predicted bound (from a short run) against the observed one (bisection on N over a
-    horizon T = max(5, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
+    horizon T = max(shortest, 200 k*)): the threshold lies between T/N and T/(N − 1)."""
     probe = {**overrides, "solver.allowUnstable": True, "output.times": "none", "output.images": False}
     is_unstable(scene_path, {**probe, "time.T": 1.0, "time.N": 1000}, folder, fact, progress)
     k_star = predicted_bound(folder, fact, 1.0 / 1000)
     if k_star is None:
         raise RuntimeError(f"the run in {folder} has no {fact} among its facts")
     glue_bound = predicted_bound(folder, GLUE, 1.0 / 1000) if fact == ELASTIC else None
-    horizon = max(5.0, 200 * k_star)
+    horizon = max(shortest, 200 * k_star)
     steps = smallest_stable_steps(scene_path, {**probe, "time.T": horizon}, folder, round(horizon / k_star), fact,
                                   progress)
     stable_k, unstable_k = horizon / steps, horizon / (steps - 1)
@@ -194,6 +202,13 @@ def glue_rows(scheme: str, p_tau: float, folder: Path, progress: bool) -> list[d
              **threshold(GLUE_SCENE, {**GLUE_ALONE, "glue.pTau": p_tau, "time.scheme": scheme}, folder, GLUE, progress)}]
 
 
+def normal_rows(gamma_nu: float, folder: Path, progress: bool) -> list[dict]:
+    """The paper's scheme's normal glue bound at γ_ν (NORMAL_ALONE)."""
+    return [{"term": "normal glue", "parameter": gamma_nu, "damage": "on",
+             **threshold(GLUE_SCENE, {**NORMAL_ALONE, "glue.gammaNu": gamma_nu}, folder, NORMAL, progress,
+                         shortest=NORMAL_HORIZON)}]
+
+
 YOUNG = (100.0, 316.0, 1000.0, 3162.0, 10000.0)  # the elastic and implicit cases: E over two decades of E/η
 GLUE_STIFFNESSES = (100.0, 1000.0, 10000.0)      # the glue-bound cases: p_τ
 
@@ -203,9 +218,9 @@ def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_ST
     """Predicted and observed bounds of the explicit terms, on `scene_path` with coarse meshes:
     the paper's scheme's elastic k* for several E/η, with damage and with λ_u = 0; the implicit
     schemes far above it with strong damage; the damage source's bound per scheme (SOURCE_ALONE);
-    and the paper's scheme's tangential glue bound 2/ρ_τ for several p_τ on the shear scene set up
-    so that the glue alone sets the bound (GLUE_ALONE; the other schemes take the glue implicit
-    and have none). progress: a bar of these cases and
+    and the paper's scheme's glue bounds 2/ρ_τ and 2/ρ_ν for several p_τ, resp. γ_ν, on the shear
+    scene set up so that the glue alone sets the bound (GLUE_ALONE, NORMAL_ALONE; the other schemes
+    take the glue implicit and have none). progress: a bar of these cases and
     each run's bar, True, False or "auto" (where one can be seen: progress.py). `out`: a new
     folder, or with `force` one an earlier study wrote (outputs.py)."""
     from functools import partial
@@ -222,6 +237,7 @@ def stability(scene_path: str | Path, out: str | Path, young=YOUNG, glue=GLUE_ST
               for E in young]
     cases += [(f"damage source, {scheme}", partial(source_rows, scene_path, scheme)) for scheme in ("euler", "bdf2")]
     cases += [(f"tangential glue, euler, p_τ = {p_tau:g}", partial(glue_rows, "euler", p_tau)) for p_tau in glue]
+    cases += [(f"normal glue, euler, γ_ν = {gamma_nu:g}", partial(normal_rows, gamma_nu)) for gamma_nu in glue]
     rows = []
     with tempfile.TemporaryDirectory() as scratch, counter(shown, len(cases), "case", "stability") as bar:
         for label, rows_of in cases:
@@ -246,7 +262,8 @@ def plot(target: Path, rows: list[dict]) -> None:
               ("elastic", "on", "euler", "s", "elastic (euler), damage on"),
               ("damage source", "on", "euler", "D", "damage source (euler)"),
               ("damage source", "on", "bdf2", "d", "damage source (bdf2)"),
-              ("tangential glue", "on", "euler", "^", "tangential glue (euler)"))
+              ("tangential glue", "on", "euler", "^", "tangential glue (euler)"),
+              ("normal glue", "on", "euler", "v", "normal glue (euler)"))
     measured = [row for row in rows if "observed" in row]
     for term, damage, scheme, marker, label in series:
         points = [(row["predicted"], row["observed"]) for row in measured
