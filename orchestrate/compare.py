@@ -1,16 +1,18 @@
 """Two runs compared in the norms of the model: python -m orchestrate compare RUN_A RUN_B.
 
-At every time both runs saved their state (state_NNNN.txt, output.fields "state"),
-edp/tools/errors.edp measures ‖u_A − u_B‖_V, ‖ζ_A − ζ_B‖_L² and ‖β_A − β_B‖_L²(Γ_C)
-(docs/model.md section 11 for the symbols). The coarser run's P1 fields are interpolated onto the
-finer run's meshes and integrated there; the figures are exact when the meshes are nested (every
-triangle of the coarser mesh is a union of triangles of the finer one: the same mesh, or the
-structured family under n → 2n), otherwise the interpolation error of the coarser run is part of
-them, and the report says which. The two runs must cover the same bodies: their meshes may differ,
-their domains may not.
+At every time either run saved its state (state_NNNN.txt, output.fields "state") within the
+interval both cover, edp/tools/errors.edp measures ‖u_A − u_B‖_V, ‖ζ_A − ζ_B‖_L² and
+‖β_A − β_B‖_L²(Γ_C) (docs/model.md section 11 for the symbols). A run that saved no state at one
+of those times is interpolated linearly in time between its neighbouring states (the report
+marks it). The coarser run's P1 fields are interpolated onto the finer run's meshes and
+integrated there; the figures are exact when the meshes are nested (every triangle of the coarser
+mesh is a union of triangles of the finer one: the same mesh, or the structured family under
+n → 2n), otherwise the interpolation error of the coarser run is part of them, and the report
+says which. The two runs must cover the same bodies: their meshes may differ, their domains may
+not.
 
 The histories (history.csv) of both runs are drawn over each other in history.png of the
-comparison folder, next to comparison.csv (one row per common time): a new folder, or with
+comparison folder, next to comparison.csv (one row per time): a new folder, or with
 --force one an earlier comparison wrote, whose files alone it replaces (outputs.py).
 """
 from __future__ import annotations
@@ -26,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
+from orchestrate.manifest import STATE_ARRAYS, read_state
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
 
@@ -46,25 +49,61 @@ def state_times(result: Result) -> list[tuple[float, Path]]:
     return sorted(found)
 
 
-def common_states(a: Result, b: Result) -> list[tuple[Path, Path]]:
-    """The pairs of state files of a and b at the same instants: times within SAME_TIME of the
-    smaller step of each other (output times are multiples of each run's k)."""
-    times_a, times_b = state_times(a), state_times(b)
-    missing = [str(run.folder) for run, times in ((a, times_a), (b, times_b)) if not times]
+def paired_states(a: Result, b: Result, scratch: Path) -> list[tuple[Path, Path, str]]:
+    """(state of a, state of b, which run was interpolated: "A", "B" or "") at every time either
+    run saved its state within the interval both cover. Times within SAME_TIME of the smaller step
+    are one instant (output times are multiples of each run's k); at a time one run did not save,
+    its state is the linear interpolation in time of its two neighbours, written to `scratch`."""
+    times = {"A": state_times(a), "B": state_times(b)}
+    missing = [str(run.folder) for run, saved in ((a, times["A"]), (b, times["B"])) if not saved]
+    if missing:
+        refuse(a, b, f"{' and '.join(missing)} saved no state (state_NNNN.txt)")
+    tolerance = SAME_TIME * min(a.params["k"], b.params["k"])
+    start = max(saved[0][0] for saved in times.values()) - tolerance
+    end = min(saved[-1][0] for saved in times.values()) + tolerance
+    instants = []
+    for t, _ in sorted(times["A"] + times["B"]):
+        if start <= t <= end and not (instants and t - instants[-1] <= tolerance):
+            instants.append(t)
+    if not instants:
+        refuse(a, b, "the times at which they saved their states (output.times) do not overlap")
     pairs = []
-    if not missing:
-        tolerance = SAME_TIME * min(a.params["k"], b.params["k"])
-        for t, path in times_a:
-            nearest = min(times_b, key=lambda entry: abs(entry[0] - t))
+    for j, t in enumerate(instants):
+        files, interpolated = [], ""
+        for side, saved in times.items():
+            nearest = min(saved, key=lambda entry: abs(entry[0] - t))
             if abs(nearest[0] - t) <= tolerance:
-                pairs.append((path, nearest[1]))
-    if not pairs:
-        why = (f"{' and '.join(missing)} saved no state (state_NNNN.txt)" if missing
-               else "they saved their states at no common time (output.times)")
-        raise RuntimeError(f"cannot compare {a.folder} and {b.folder}: {why}. compare reads the unknowns from the "
-                           "state files: run with output.fields including \"state\" (e.g. --set "
-                           "'output.fields=[\"bodies\", \"stress\", \"contact\", \"state\"]') and common output.times")
+                files.append(nearest[1])
+            else:
+                files.append(interpolated_state(saved, t, scratch / f"{side}_{j:04d}.txt"))
+                interpolated = side
+        pairs.append((files[0], files[1], interpolated))
     return pairs
+
+
+def refuse(a: Result, b: Result, why: str) -> None:
+    raise RuntimeError(f"cannot compare {a.folder} and {b.folder}: {why}. compare reads the unknowns from the "
+                       "state files: run with output.fields including \"state\" (e.g. --set "
+                       "'output.fields=[\"bodies\", \"stress\", \"contact\", \"state\"]') and output.times "
+                       "that overlap")
+
+
+def interpolated_state(saved: list[tuple[float, Path]], t: float, out: Path) -> Path:
+    """The state at t between two saved states of one run (linear in time: second order, like the
+    schemes' own interpolation of outputs), written as edp/lib/output.idp writes states. The trace
+    coordinates s are the run's own and do not change with time."""
+    after = next(j for j, (time, _) in enumerate(saved) if time > t)
+    (t0, path0), (t1, path1) = saved[after - 1], saved[after]
+    first, second = read_state(path0), read_state(path1)
+    if not np.array_equal(first["s"], second["s"]):
+        raise RuntimeError(f"{path0} and {path1}: their trace coordinates differ, not states of one run")
+    weight = (t - t0) / (t1 - t0)
+    lines = [repr(t)]
+    for name in STATE_ARRAYS:
+        values = (1 - weight) * first[name] + weight * second[name]
+        lines.append(f"{len(values)}\n" + " ".join(repr(float(value)) for value in values))
+    out.write_text("\n".join(lines) + "\n")
+    return out
 
 
 def instant_distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
@@ -168,12 +207,13 @@ class Comparison:
     b: Result
     reference: str                       # "a" or "b"
     nested: bool                         # the other run's meshes nest in the reference's: exact figures
-    rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta
+    rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta,
+    #                                                 interpolated ("A", "B": whose state is interpolated in time; "")
     parameters: dict[str, tuple] = field(default_factory=dict)
     meshes: list[dict] = field(default_factory=list)  # per body: nodes and triangles of a and b, same (one mesh)
 
     def maximum(self, quantity: str) -> float:
-        """The largest distance over the common times (Theorem 2.1's norm of the seed: max in time)."""
+        """The largest distance over the compared times (Theorem 2.1's norm of the seed: max in time)."""
         return max(row[quantity] for row in self.rows)
 
     def relative(self, quantity: str) -> float:
@@ -192,13 +232,16 @@ class Comparison:
                         "the other's meshes do not nest in them: its interpolation error is part of the figures"))
         lines.append(f"relative: to the norm of {self.reference.upper()} at that time; in the row max, the largest "
                      "distance over the largest norm")
-        lines.append(f"{'t':>10}  {'‖uA−uB‖_V':>12} {'relative':>10}  {'‖ζA−ζB‖_L2':>12} {'relative':>10}  "
+        if any(row["interpolated"] for row in self.rows):
+            lines.append("a run marked after t saved no state at that time: its state there is the linear "
+                         "interpolation in time of its neighbours (second order in the step between them)")
+        lines.append(f"{'t':>10}     {'‖uA−uB‖_V':>12} {'relative':>10}  {'‖ζA−ζB‖_L2':>12} {'relative':>10}  "
                      f"{'‖βA−βB‖_L2':>12} {'relative':>10}")
         for row in self.rows:
             cells = [f"{row[q]:12.4e} {ratio(row[q], row[NORMS[q]]):10.3e}" for q in QUANTITIES]
-            lines.append(f"{row['t']:10.6g}  " + "  ".join(cells))
+            lines.append(f"{row['t']:10.6g} {row['interpolated']:>2}  " + "  ".join(cells))
         cells = [f"{self.maximum(q):12.4e} {self.relative(q):10.3e}" for q in QUANTITIES]
-        lines.append(f"{'max':>10}  " + "  ".join(cells))
+        lines.append(f"{'max':>10}     " + "  ".join(cells))
         return "\n".join(lines)
 
 
@@ -207,9 +250,9 @@ def ratio(distance: float, norm: float) -> float:
 
 
 def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Comparison:
-    """The distances of two complete runs (load_result) at every time both saved their state."""
+    """The distances of two complete runs (load_result) at every time either saved its state
+    (paired_states: the other's state interpolated in time where it saved none)."""
     a, b = (run if isinstance(run, Result) else load_result(run) for run in (run_a, run_b))
-    pairs = common_states(a, b)
     files = {run: [run.mesh_file(body) for body in (1, 2)] for run in (a, b)}
     meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
     for body in (0, 1):
@@ -219,8 +262,12 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     reference = "a" if finer else "b"
     run, ref = (b, a) if finer else (a, b)
     nested = all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
-    ordered = [(second, first) for first, second in pairs] if reference == "a" else pairs
-    rows = pair_distances(run, ref, ordered)
+    with tempfile.TemporaryDirectory() as scratch:
+        pairs = paired_states(a, b, Path(scratch))
+        ordered = [(second, first) if reference == "a" else (first, second) for first, second, _ in pairs]
+        rows = pair_distances(run, ref, ordered)
+    for row, (_, _, interpolated) in zip(rows, pairs):
+        row["interpolated"] = interpolated
     return Comparison(a, b, reference, nested, rows, differing_parameters(a, b), mesh_differences(meshes[a], meshes[b]))
 
 
@@ -241,6 +288,6 @@ def write(comparison: Comparison, out: Path, dpi: int = 110, force: bool = False
     from orchestrate.render import plot_history
 
     claim_folder(out, NAME, FILES, force)
-    write_csv(out / "comparison.csv", comparison.rows, ["t", *QUANTITIES, *NORMS.values()])
+    write_csv(out / "comparison.csv", comparison.rows, ["t", *QUANTITIES, *NORMS.values(), "interpolated"])
     write_text(out / "report.txt", comparison.report() + "\n")
     plot_history({"A": comparison.a, "B": comparison.b}, out / "history.png", dpi=dpi)

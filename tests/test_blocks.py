@@ -180,29 +180,37 @@ def test_a_damage_step_past_its_active_set_iterations_is_finished_by_projected_g
 @pytest.mark.parametrize("n, split", [((5, 8), False), ((7, 11), True)], ids=["not-nested", "nested"])
 def test_compare_gives_the_distances_of_the_creep_recursions(blocks, tmp_path, n, split):
     """The creep's u is linear and ζ constant in each body, so interpolating the coarser run onto the
-    finer run's meshes loses nothing, whether they nest (the blocks' meshes split in four) or not:
-    the distances at the common times (every step of N = 25, every other step of N = 50) are those
-    of the two recursions' uniform strains and damage, times the bodies' areas."""
+    finer run's meshes loses nothing, whether they nest (the blocks' meshes split in four) or not.
+    compare measures at every output of either run (every step of N = 50 from the first of N = 25):
+    where N = 25 saved no state, its state is the mean of its two neighbours (linear in time), so
+    the distances are those of the two recursions' uniform strains and damage (averaged there),
+    times the bodies' areas."""
     from orchestrate.compare import compare
 
     other = blocks_run(tmp_path, n=n, steps=2 * N, split=split)
     comparison = compare(blocks, other)
     assert comparison.reference == ("b" if split else "a") and comparison.nested == split
-    fine, coarse = creep_recursion(steps=N), creep_recursion(steps=2 * N)
-    np.testing.assert_allclose([row["t"] for row in comparison.rows], np.arange(1, N + 1) * T / N, rtol=1e-12)
+    at_n, at_2n = creep_recursion(steps=N), creep_recursion(steps=2 * N)
+    steps = range(2, 2 * N + 1)  # of N = 50
+    np.testing.assert_allclose([row["t"] for row in comparison.rows], np.array(steps) * T / (2 * N), rtol=1e-12)
     areas = np.array(HEIGHT) * WIDTH
-    for row in comparison.rows:
-        a, b = fine[round(row["t"] * N) - 1], coarse[round(row["t"] * 2 * N) - 1]
+    for j, row in zip(steps, comparison.rows):
+        neighbours = (at_n[(j - 1) // 2 - 1], at_n[(j + 1) // 2 - 1])
+        a = {key: (neighbours[0][key] + neighbours[1][key]) / 2 for key in ("strain", "zeta")} if j % 2 else at_n[j // 2 - 1]
+        b = at_2n[j - 1]
+        assert row["interpolated"] == ("A" if j % 2 else "")
         strain_distance = np.sqrt(np.sum(areas[:, None] * (a["strain"] - b["strain"]) ** 2))
         assert row["errorV"] == pytest.approx(strain_distance, rel=1e-8)
         assert row["errorZeta"] == pytest.approx(np.sqrt(np.sum(areas * (a["zeta"] - b["zeta"]) ** 2)), rel=1e-8)
-        assert row["normV"] == pytest.approx((b if split else a)["normV"], rel=1e-10)
+        reference = (b if split else a)["strain"]
+        assert row["normV"] == pytest.approx(np.sqrt(np.sum(areas[:, None] * reference ** 2)), rel=1e-10)
         assert row["errorBeta"] == 0  # no glue: β⁰ = 1 in both
     assert comparison.maximum("errorV") > 1e-3 * comparison.rows[-1]["normV"], "the runs should differ"
+    assert "interpolation in time" in comparison.report()
 
 
 def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
-    from orchestrate.compare import common_states, covers_one_body, nests, triangulation
+    from orchestrate.compare import covers_one_body, nests, paired_states, triangulation
     from orchestrate.results import Result
 
     square = gmsh_mesh("meshes/rectangle.geo", tmp_path / "square.msh", x1=2, y0=0, y1=1, n=4)
@@ -215,7 +223,7 @@ def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
     assert nests(triangulation(square), triangulation(square))
     (tmp_path / "empty").mkdir()
     with pytest.raises(RuntimeError, match='saved no state.*output.fields including "state"'):
-        common_states(blocks, Result(tmp_path / "empty"))
+        paired_states(blocks, Result(tmp_path / "empty"), tmp_path)
 
 
 def test_compare_writes_a_new_folder_and_replaces_only_its_own_files_never_through_a_link(blocks, tmp_path):
@@ -246,10 +254,13 @@ def test_compare_writes_a_new_folder_and_replaces_only_its_own_files_never_throu
 @pytest.mark.unit
 def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(tmp_path):
     """T = 1e-9 with N = 4 and N = 2: each state of the coarser run is paired with the state at its
-    own instant, never with a neighbour that lies within an absolute tolerance."""
+    own instant, never with a neighbour that lies within an absolute tolerance; at the finer run's
+    instant between two of the coarser run's, the coarser state is their mean; before the coarser
+    run's first state there is nothing to compare."""
     import json
 
-    from orchestrate.compare import common_states
+    from orchestrate.compare import paired_states
+    from orchestrate.manifest import STATE_ARRAYS, read_state
     from orchestrate.results import Result
 
     def fake(name, steps):
@@ -257,12 +268,20 @@ def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(t
         folder.mkdir()
         (folder / "params_used.json").write_text(json.dumps({"k": 1e-9 / steps}))
         names = [f"state_{j:04d}.txt" for j in range(1, steps + 1)]
-        for j, name in enumerate(names, 1):
-            (folder / name).write_text(f"{j * 1e-9 / steps!r} 0\n")
+        for j, name in enumerate(names, 1):  # every array [j, 10 j], the trace coordinates [0, 1]
+            arrays = ["2\n0 1" if array == "s" else f"2\n{j} {10 * j}" for array in STATE_ARRAYS]
+            (folder / name).write_text(f"{j * 1e-9 / steps!r}\n" + "\n".join(arrays) + "\n")
         (folder / "run.json").write_text(json.dumps({"files": names}))  # what compare reads, and nothing else
         return Result(folder)
 
     fine, coarse = fake("fine", 4), fake("coarse", 2)
-    pairs = common_states(fine, coarse)
-    assert [(a.name, b.name) for a, b in pairs] == [("state_0002.txt", "state_0001.txt"),
-                                                    ("state_0004.txt", "state_0002.txt")]
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    pairs = paired_states(fine, coarse, scratch)
+    assert [(a.name, b.name, which) for a, b, which in pairs] == [
+        ("state_0002.txt", "state_0001.txt", ""), ("state_0003.txt", "B_0001.txt", "B"),
+        ("state_0004.txt", "state_0002.txt", "")]
+    middle = read_state(pairs[1][1])
+    assert middle["t"] == pytest.approx(0.75e-9, rel=1e-15)
+    np.testing.assert_allclose(middle["u1"], [1.5, 15.0], rtol=1e-15)
+    np.testing.assert_array_equal(middle["s"], [0.0, 1.0])
