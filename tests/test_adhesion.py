@@ -151,3 +151,28 @@ def test_one_interface_opened_in_mode_one_separates_with_its_fracture_energy(tmp
     assert fine["debondShare"] < coarse["debondShare"] / 3 and fine["stored"] < 1e-5
     assert "| 400 |" in (tmp_path / "study" / "README.md").read_text()
     assert (tmp_path / "study" / "traction.png").stat().st_size > 10_000
+
+
+def test_a_cantilever_peel_follows_beam_theory(tmp_path):
+    """`study cantilever` at a small size (results/cantilever holds a/h from 10 to 30): an arm bonded
+    beyond a crack and lifted at its free end. With χ fitted on the initial elastic branch alone,
+    the force where the front passes a/h = 10, 12, 14 is within 3 % of beam theory's
+    √(2E′I G_c)/(a + χh), and the front starts (moves by h/8) within 3 % of δ_c; the root's
+    compliance χh is that of a beam on the glue's Winkler foundation, 1/λ = (4E′I/γ_ν)^¼, within
+    the 20 % that the shear glue and the arm's shear strain move it by."""
+    from orchestrate.studies.cantilever import SMALL, cantilever
+
+    peel = cantilever(tmp_path / "study", SMALL, progress=False)
+    stiffness = 1000 / (1 - 0.3 ** 2) / 12  # E′I of scenes/cantilever.toml's arm, h = 1
+    assert peel.beam.stiffness == pytest.approx(stiffness, rel=1e-12)
+    assert peel.beam.root == pytest.approx((4 * stiffness / 100) ** 0.25, rel=0.2)
+    assert [row["a_over_h"] for row in peel.rows] == [10, 12, 14]
+    for row in peel.rows:
+        theory = math.sqrt(2 * stiffness * 0.01 * (1 - 0.5e-4)) / (row["a_over_h"] + peel.beam.root)
+        assert row["force_theory"] == pytest.approx(theory, rel=1e-12)
+        assert abs(row["error"]) < 0.03
+    started = peel.onset[0]
+    assert started["moved_over_h"] == 0.125 and abs(started["error"]) < 0.03
+    table = (tmp_path / "study" / "cantilever.csv").read_text().splitlines()
+    assert table[0] == "a_over_h,force,force_theory,error" and len(table) == 4
+    assert (tmp_path / "study" / "peel.png").stat().st_size > 10_000

@@ -26,9 +26,9 @@ LAYERS = [
     {"runner"},
     {"sweep", "plot", "reference"},
     {"studies", "studies.convergence", "studies.stability", "studies.hertz", "studies.bench", "studies.reports",
-     "studies.gallery", "studies.modeone"},
+     "studies.gallery", "studies.modeone", "studies.cantilever"},
     {"cli", "cli.options", "cli.run", "cli.sweep", "cli.plot", "cli.render", "cli.compare", "cli.reference", "cli.gallery",
-     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone"},
+     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone", "cli.cantilever"},
 ]
 LAYER = {module: depth for depth, layer in enumerate(LAYERS) for module in layer}
 

@@ -17,7 +17,7 @@ from orchestrate.mesh import MeshError
 
 COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
                  ("run", "sweep", "plot", "render", "compare", "gallery", "bench", "reference"))
-STUDIES = tuple(f"orchestrate.cli.{name}" for name in ("convergence", "stability", "hertz", "modeone"))
+STUDIES = tuple(f"orchestrate.cli.{name}" for name in ("convergence", "stability", "hertz", "modeone", "cantilever"))
 
 
 class DefaultsShown(argparse.HelpFormatter):
@@ -44,7 +44,7 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="python -m orchestrate", description=__doc__.split("\n\n")[0])
     commands = top.add_subparsers(dest="command", required=True)
     add_commands(commands, COMMANDS)
-    study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz, mode-one")
+    study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz, mode-one, cantilever")
     add_commands(study.add_subparsers(dest="kind", required=True), STUDIES)
     return top
 
