@@ -8,13 +8,16 @@ import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import meshio
 import numpy as np
 
 from orchestrate.freefem import REPO
 from orchestrate.manifest import (FACTS, MANIFEST, PARTS, STATE_ARRAYS, IncompleteRun, check_files,  # noqa: F401
                                   read_state, verify_manifest)
+
+if TYPE_CHECKING:  # meshio is imported where a field is read: a run that reads none never loads it
+    import meshio
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,8 @@ class Result:
         else:
             times = np.array([t for t, _ in self.outputs])
             files = self.outputs[int(np.argmin(abs(times - time)))][1]
+        import meshio
+
         return meshio.read(files[part])
 
     def grid(self, part: str, time: float | None = None):

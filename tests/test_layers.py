@@ -135,3 +135,26 @@ def test_the_checks_see_an_upward_import_and_a_circle(tmp_path):
     assert upward(edges) == ["runner imports sweep", "scene imports runner", "scene imports the package"]
     found = circle(edges)
     assert found[0] == found[-1] and set(found) == {"plot", "sweep"}
+
+
+def test_a_command_loads_only_what_it_uses():
+    """`python -m orchestrate run …` builds a parser of that command alone, and neither it nor the
+    package's API imports matplotlib (the plotting names load when first used); every command's
+    module is its name without hyphens, which is how the parser finds it without importing the
+    others."""
+    import importlib
+    import subprocess
+    import sys
+
+    from orchestrate.cli import COMMANDS, STUDIES
+
+    for module in COMMANDS + STUDIES:
+        assert importlib.import_module(module).NAME.replace("-", "") == module.rsplit(".", 1)[1]
+    probe = ("import sys; from orchestrate.cli import parser; import orchestrate; "
+             "parser(['run', 'scene.toml']).parse_args(['run', 'scene.toml']); "
+             "print(sorted(name for name in ('matplotlib', 'orchestrate.render', 'orchestrate.studies') if name in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"
+    from orchestrate import plot_sweep  # the lazy name still works
+
+    assert plot_sweep.__module__ == "orchestrate.plot"

@@ -40,17 +40,35 @@ def add_commands(subparsers, modules) -> None:
         parser.set_defaults(handler=module.command)
 
 
-def parser() -> argparse.ArgumentParser:
+def named(argv: list[str], modules) -> tuple[str, ...] | None:
+    """The module of the command argv starts with, if it is one of `modules`. A command's module is
+    its name without hyphens (mode-one: orchestrate.cli.modeone)."""
+    module = f"orchestrate.cli.{argv[0].replace('-', '')}" if argv else None
+    return (module,) if module in modules else None
+
+
+def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: given argv that names a command, with that command alone (a
+    command imports only what it uses: `run` never imports matplotlib); else with every command
+    (help, or a typo, which argparse answers with the list)."""
+    wanted, studies = COMMANDS, STUDIES
+    if argv and argv[0] == "study":
+        wanted, studies = (), named(argv[1:], STUDIES) or STUDIES
+    elif argv and named(argv, COMMANDS):
+        wanted, studies = named(argv, COMMANDS), ()
     top = argparse.ArgumentParser(prog="python -m orchestrate", description=__doc__.split("\n\n")[0])
     commands = top.add_subparsers(dest="command", required=True)
-    add_commands(commands, COMMANDS)
-    study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz, mode-one, cantilever")
-    add_commands(study.add_subparsers(dest="kind", required=True), STUDIES)
+    add_commands(commands, wanted)
+    if studies:
+        study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz, mode-one, "
+                                                  "cantilever")
+        add_commands(study.add_subparsers(dest="kind", required=True), studies)
     return top
 
 
 def main(argv: list[str] | None = None) -> int:
-    options = parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else argv
+    options = parser(argv).parse_args(argv)
     try:
         return options.handler(options)
     except SolverError as error:
