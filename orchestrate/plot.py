@@ -22,7 +22,7 @@ from pathlib import Path
 from orchestrate.freefem import InputError
 from orchestrate.outputs import MARK, plain_name, read_record, refuse_file
 from orchestrate.plots import plain, pyplot, save
-from orchestrate.render import steady_axis
+from orchestrate.render import column_label, steady_axis, units_of
 from orchestrate.results import load_result
 from orchestrate.sweep import FIGURES
 
@@ -103,7 +103,8 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
     elif values:
         steady_axis(axis, values)
     axis.set_xlabel(plain(x))
-    axis.set_ylabel(y)
+    completed = history_runs(folder)
+    axis.set_ylabel(column_label(y, units_of(load_result(completed[0][1])), " at T") if completed else y)
     axis.grid(True, alpha=0.3)
     if len(curves) > 1:
         axis.legend(fontsize=8)
@@ -147,7 +148,8 @@ def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | 
     if not runs:
         raise InputError(f"{source}: no run of the sweep completed: nothing to draw")
     try:
-        histories = [(label, load_result(folder).history) for label, folder in runs]
+        results = [(label, load_result(folder)) for label, folder in runs]
+        histories = [(label, result.history) for label, result in results]
     except FileNotFoundError:
         raise InputError(f"{source} is neither a sweep's folder (no sweep.csv) nor a run folder (no manifest.json, "
                          "no run.json)") from None
@@ -164,8 +166,9 @@ def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | 
         axis.set_yscale("log")
     else:
         steady_axis(axis, [value for _, history in histories for value in history[y]])
-    axis.set_xlabel(x)
-    axis.set_ylabel(y)
+    units = units_of(results[0][1])  # a sweep's runs share their scene's units
+    axis.set_xlabel(column_label(x, units))
+    axis.set_ylabel(column_label(y, units))
     axis.grid(True, alpha=0.3)
     if len(histories) > 1:
         axis.legend(fontsize=8)

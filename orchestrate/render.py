@@ -3,6 +3,7 @@ deformed bodies), the contact line along Γ_C, β over position and time, and th
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +14,10 @@ from orchestrate.results import Result
 from orchestrate.scene import Units
 
 
-# The labels of a scene's consistent units (output.units): length, stress, force per unit
-# thickness, time; a scene's own table names length, force and time, and the others follow.
-UNITS = {"SI": {"length": "m", "stress": "N/m²", "force": "N/m", "time": "s"},
-         "mm-N-s": {"length": "mm", "stress": "MPa", "force": "N/mm", "time": "s"}}
+# The labels of a scene's consistent units (output.units): length, stress, force and energy per
+# unit thickness, time; a scene's own table names length, force and time, and the others follow.
+UNITS = {"SI": {"length": "m", "stress": "N/m²", "force": "N/m", "energy": "J/m", "time": "s"},
+         "mm-N-s": {"length": "mm", "stress": "MPa", "force": "N/mm", "energy": "N·mm/mm", "time": "s"}}
 
 
 def unit_labels(units) -> dict[str, str]:
@@ -28,7 +29,42 @@ def unit_labels(units) -> dict[str, str]:
     except ValueError:  # a hand-edited table: the labels are never guessed
         return UNITS["SI"]
     return {"length": named.length, "stress": f"{named.force}/{named.length}²", "force": f"{named.force}/{named.length}",
-            "time": named.time}
+            "energy": f"{named.force}·{named.length}/{named.length}", "time": named.time}
+
+
+# What each history.csv column is (docs/usage.md, "What a run writes"), for the axes of its plots:
+# title and unit kind (a key of the unit labels; energy is per unit thickness; None: a number).
+HISTORY = {
+    "t": ("time t", "time"), "normV": ("‖u‖_V", "length"), "vmMax1": ("max von Mises, body 1", "stress"),
+    "vmMax2": ("max von Mises, body 2", "stress"), "zetaMin1": ("min ζ, body 1", None),
+    "zetaMin2": ("min ζ, body 2", None), "zetaMax1": ("max ζ, body 1", None), "zetaMax2": ("max ζ, body 2", None),
+    "betaMin": ("min β", None), "betaMax": ("max β", None), "betaMean": ("mean β over Γ_C", None),
+    "debondFront": ("debonding front from Γ_C's start", "length"), "contactLength": ("closed length", "length"),
+    "contactForce": ("contact force ∫ pressure", "force"), "gapMax": ("max g_h − π1 g0", "length"),
+    "lambdaMin": ("min λ_j", "force"), "complementarity": ("max |λ_j (g_j − π1 g0_j)|", "energy"),
+    "forceX1": ("interface force x on body 1", "force"), "forceY1": ("interface force y on body 1", "force"),
+    "forceX2": ("interface force x on body 2", "force"), "forceY2": ("interface force y on body 2", "force"),
+    "forceBalance": ("|F1 + F2|", "force"), "externalWork": ("external work", "energy"),
+    "elasticEnergy": ("elastic energy", "energy"), "glueEnergy": ("glue energy", "energy"),
+    "surfaceEnergy": ("surface energy ε_a ∫(β⁰ − β)", "energy"), "viscousDissipation": ("viscous dissipation", "energy"),
+    "debondDissipation": ("debonding dissipation", "energy"), "energyBalance": ("energy balance (relative)", None),
+}
+REACTION = re.compile(r"reaction([XY])([12])_([0-9]+)")
+
+
+def column_label(name: str, units: dict[str, str], when: str = "") -> str:
+    """A history column's axis label with its unit, `when` after the title (" at T": a sweep's final
+    values); the column's name itself when it is not one of the history's quantities (counts, and
+    columns of other files)."""
+    reaction = REACTION.fullmatch(name)
+    if reaction:
+        axis, body, label = reaction.groups()
+        title, kind = f"reaction {axis.lower()} on body {body}, label {label}", "force"
+    elif name in HISTORY:
+        title, kind = HISTORY[name]
+    else:
+        return name
+    return f"{title}{when} ({units[kind]})" if kind else f"{title}{when}"
 
 
 def units_of(result: Result) -> dict[str, str]:

@@ -123,14 +123,33 @@ def test_the_images_label_the_scenes_units(tmp_path):
 
     (tmp_path / "scene.toml").write_text('[output]\nunits = "mm-N-s"\n')
     units = units_of(SimpleNamespace(folder=tmp_path))
-    assert units == {"length": "mm", "stress": "MPa", "force": "N/mm", "time": "s"}
+    assert units == {"length": "mm", "stress": "MPa", "force": "N/mm", "energy": "N·mm/mm", "time": "s"}
     assert field_titles(units)["vonMises"] == "von Mises stress (MPa)"
     assert units_of(SimpleNamespace(folder=tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
     # a scene's own set: a stress is force/length², a force per unit thickness force/length
     (tmp_path / "scene.toml").write_text('[output.units]\nlength = "mm"\nforce = "mN"\ntime = "ms"\n')
-    assert units_of(SimpleNamespace(folder=tmp_path)) == {"length": "mm", "stress": "mN/mm²", "force": "mN/mm", "time": "ms"}
+    assert units_of(SimpleNamespace(folder=tmp_path)) == {"length": "mm", "stress": "mN/mm²", "force": "mN/mm",
+                                                          "energy": "mN·mm/mm", "time": "ms"}
     (tmp_path / "scene.toml").write_text('[output.units]\nlength = "m$^2$"\n')  # edited by hand: never printed
     assert units_of(SimpleNamespace(folder=tmp_path))["length"] == "m"
+
+
+def test_every_history_column_of_a_quantity_is_labelled_with_its_unit(coarse):
+    """plot's axes: each column of history.csv that is a physical quantity gets its title and its
+    unit in the scene's units (a reaction and an interface force are forces per unit thickness,
+    the energies energies per unit thickness, ‖u‖_V = (∫ε:ε)^½ a length); the counts and the step's
+    CPU time keep their names."""
+    from orchestrate.render import UNITS, column_label
+
+    header = (coarse.folder / "history.csv").read_text().splitlines()[0].split(",")
+    counts = {"n", "contactIters", "damageIters1", "damageIters2", "zetaBelowMin1", "zetaBelowMin2", "stepSeconds"}
+    si = UNITS["SI"]
+    for name in header:
+        assert (column_label(name, si) == name) == (name in counts), name
+    assert column_label("reactionY1_5", si) == "reaction y on body 1, label 5 (N/m)"
+    assert column_label("elasticEnergy", UNITS["mm-N-s"]) == "elastic energy (N·mm/mm)"
+    assert column_label("normV", si) == "‖u‖_V (m)" and column_label("t", si) == "time t (s)"
+    assert column_label("betaMean", si) == "mean β over Γ_C"
 
 
 def overlap(a, b) -> bool:
