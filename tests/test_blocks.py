@@ -177,6 +177,19 @@ def test_a_damage_step_past_its_active_set_iterations_is_finished_by_projected_g
     np.testing.assert_allclose(result.history["zetaMin1"], [step["zeta"][0] for step in expected], rtol=0, atol=1e-10)
 
 
+def test_the_error_estimate_is_zero_where_the_strain_is_uniform(blocks):
+    """The creep's u is linear in each body: the recovered strains are the computed ones, so the
+    Zienkiewicz–Zhu estimate (orchestrate/estimate.py) vanishes at every saved state, while its
+    ‖u_h‖_V is the run's normV there."""
+    from orchestrate.estimate import estimate
+
+    rows = estimate(blocks)
+    assert len(rows) == N
+    for row, norm in zip(rows, blocks.history["normV"]):
+        assert row["estimate"] <= 1e-10 * norm
+        assert row["normV"] == pytest.approx(norm, rel=1e-10)
+
+
 @pytest.mark.parametrize("n, split", [((5, 8), False), ((7, 11), True)], ids=["not-nested", "nested"])
 def test_compare_gives_the_distances_of_the_creep_recursions(blocks, tmp_path, n, split):
     """The creep's u is linear and ζ constant in each body, so interpolating the coarser run onto the

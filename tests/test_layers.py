@@ -21,14 +21,14 @@ LAYERS = [
     {"geo", "outputs", "progress", "parameters"},
     {"mesh", "manifest", "plots"},
     {"scene", "results"},
-    {"arguments", "render", "compare"},
+    {"arguments", "render", "compare", "estimate"},
     {"steps"},
     {"runner"},
     {"sweep", "plot", "reference"},
     {"studies", "studies.convergence", "studies.stability", "studies.hertz", "studies.bench", "studies.reports",
      "studies.gallery", "studies.modeone", "studies.cantilever"},
     {"cli", "cli.options", "cli.run", "cli.sweep", "cli.plot", "cli.render", "cli.compare", "cli.reference", "cli.gallery",
-     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone", "cli.cantilever"},
+     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone", "cli.cantilever", "cli.estimate"},
 ]
 LAYER = {module: depth for depth, layer in enumerate(LAYERS) for module in layer}
 
