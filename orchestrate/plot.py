@@ -23,7 +23,7 @@ from orchestrate.freefem import InputError
 from orchestrate.outputs import MARK, plain_name, read_record, refuse_file
 from orchestrate.plots import plain, pyplot, save
 from orchestrate.render import column_label, steady_axis, units_of
-from orchestrate.results import load_result
+from orchestrate.results import Result, load_result
 from orchestrate.sweep import FIGURES
 
 DONE = ("completed", "skipped (complete)")
@@ -103,8 +103,8 @@ def plot_sweep(folder: str | Path, y: str, x: str | None = None, target: str | P
     elif values:
         steady_axis(axis, values)
     axis.set_xlabel(plain(x))
-    completed = history_runs(folder)
-    axis.set_ylabel(column_label(y, units_of(load_result(completed[0][1])), " at T") if completed else y)
+    completed = history_runs(folder)  # the units label the axis only: no run is read for them
+    axis.set_ylabel(column_label(y, units_of(Result(completed[0][1])), " at T") if completed else y)
     axis.grid(True, alpha=0.3)
     if len(curves) > 1:
         axis.legend(fontsize=8)

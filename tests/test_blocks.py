@@ -219,7 +219,10 @@ def test_compare_gives_the_distances_of_the_creep_recursions(blocks, tmp_path, n
         assert row["normV"] == pytest.approx(np.sqrt(np.sum(areas[:, None] * reference ** 2)), rel=1e-10)
         assert row["errorBeta"] == 0  # no glue: β⁰ = 1 in both
     assert comparison.maximum("errorV") > 1e-3 * comparison.rows[-1]["normV"], "the runs should differ"
-    assert "interpolation in time" in comparison.report()
+    report = comparison.report()
+    assert "interpolation in time" in report and "max, common" in report
+    common = [row for row in comparison.rows if not row["interpolated"]]
+    assert comparison.maximum("errorV", common=True) == max(row["errorV"] for row in common)
 
 
 def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):

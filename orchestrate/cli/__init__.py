@@ -41,10 +41,11 @@ def add_commands(subparsers, modules) -> None:
 
 
 def named(argv: list[str], modules) -> tuple[str, ...] | None:
-    """The module of the command argv starts with, if it is one of `modules`. A command's module is
-    its name without hyphens (mode-one: orchestrate.cli.modeone)."""
+    """The module of the command argv starts with, if it is one of `modules` and argv names it as
+    it is spelled (a near miss gets the whole list from argparse). A command's module is its name
+    without hyphens (mode-one: orchestrate.cli.modeone)."""
     module = f"orchestrate.cli.{argv[0].replace('-', '')}" if argv else None
-    return (module,) if module in modules else None
+    return (module,) if module in modules and importlib.import_module(module).NAME == argv[0] else None
 
 
 def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:

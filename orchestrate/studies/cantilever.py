@@ -8,12 +8,13 @@ mixity (up to the truncation's ε_a δ₀²/(2L²), below 1e-4 of it here). Beam
 clamped a + χh from its end (χh: the root's compliance, from the glue and the substrate):
   compliance C(a) = (a + χh)³/(3E′I),  on the propagation branch P = √(2E′I G_c)/(a + χh),
   and the front starts at δ_c = (a₀ + χh)² √(2G_c/(E′I))/3,
-E′ = E/(1 − ν²), I = h³/12. χ is fitted once, from the compliance of the initial elastic branch
-(the steps before any debonding: surfaceEnergy and debondDissipation still 0). Measured from
+E′ = E/(1 − ν²) in plane strain (E in plane stress), I = h³/12. χ is fitted once, from the
+compliance of the initial elastic branch (the steps before any debonding: surfaceEnergy and
+debondDissipation still 0). Measured from
 history.csv: P the lifting force per unit width (reactionY1_4), a the front (debondFront, from
 Γ_C's start at the free end: the crack's length), read where the front passes each a/h by
 linear interpolation between steps; the front's start is the opening where it has moved by h/8
-(the cohesive zone forms before: the front moves by 0.01 h at about 0.9 δ_c; the report gives
+(the cohesive zone forms before: the front moves by 0.01 h at about 0.85 δ_c; the report gives
 both). Writes cantilever.csv (one row per a/h), onset.csv, README.md and peel.png into --out (the
 run in a temporary folder).
 """
@@ -86,8 +87,9 @@ def fit_beam(scene: Scene, lift: np.ndarray, force: np.ndarray, elastic: np.ndar
     glue = scene.glue
     y0, y1 = scene.body1.mesh.rectangle[2:]
     thickness = y1 - y0
-    E, nu = scene.body1.material.E, scene.body1.material.nu
-    stiffness = E / (1 - nu ** 2) * thickness ** 3 / 12  # plane strain
+    material = scene.body1.material
+    modulus = material.E / (1 - material.nu ** 2) if material.planeStrain else material.E  # E′
+    stiffness = modulus * thickness ** 3 / 12
     onset = math.sqrt(glue.adhesionEnergy / glue.gammaNu)
     energy = glue.adhesionEnergy * (1 - onset ** 2 / (2 * glue.L ** 2))
     compliance = float(np.dot(lift[elastic], force[elastic]) / np.dot(force[elastic], force[elastic]))
@@ -146,10 +148,12 @@ def report(rows: list[dict], onset: list[dict], beam: Beam, scene: Scene, size: 
     command = "python -m orchestrate study cantilever" + ("" if size == FULL else "  # at another size")
     worst = max(abs(row["error"]) for row in rows)
     lines = ["# A cantilever peel against beam theory", "", *reproduce(command),
-             f"scenes/cantilever.toml: an arm (0, {size.length:g}) × (0, 1), h = 1, plane strain (E = {material.E:g}, "
+             f"scenes/cantilever.toml: an arm (0, {size.length:g}) × (0, 1), h = 1, "
+             f"{'plane strain' if material.planeStrain else 'plane stress'} (E = {material.E:g}, "
              f"ν = {material.nu:g}; {size.n // size.length:g} segments per h along Γ_C), bonded to a stiff clamped "
              f"substrate beyond a crack a₀ = {CRACK:g} from its free end, which is lifted by δ = {size.lift:g} t over "
-             f"N = {size.steps} steps (bdf2). Glue γ_ν = p_τ = {glue.gammaNu:g}, rate-independent (debondMobility = inf), "
+             f"N = {size.steps} steps (bdf2). Glue γ_ν = {glue.gammaNu:g}, p_τ = {glue.pTau:g}, rate-independent "
+             "(debondMobility = inf), "
              f"ε_a = {glue.adhesionEnergy:g}, shearDebonding on: G_c = ε_a (1 − δ₀²/(2L²)) = {beam.energy:.6g}.", "",
              f"Beam theory: P = √(2E′I G_c)/(a + χh), E′I = {beam.stiffness:.6g}; χh = {beam.root:.4f} from the "
              f"compliance of the {elastic} steps of the initial elastic branch (C₀ = (a₀ + χh)³/(3E′I) = "
