@@ -3,7 +3,8 @@
 //   1 Γ_C (the middle of the top)   2 right side   3 bottom   4 left side   5 top outside Γ_C
 // n = elements along Γ_C (uniform there); away from it the size grows to `coarse`·(a/n), with
 // the mesh finer toward the edges (±a/2, 0) of the contact zone, where the stresses concentrate.
-DefineConstant[ n = 8, w = 6, depth = 4, a = 1, coarse = 6 ];
+DefineConstant[ n = 8, w = 6, depth = 4, a = 1, coarse = 6, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): no Transfinite line, so the sizes rule.
 If (n < 1 || n != Floor(n))
   Error("base.geo: n = %g must be a positive integer", n);
   Abort;
@@ -35,7 +36,9 @@ Line(5) = {3, 4};
 Line(6) = {5, 6};
 Curve Loop(1) = {3, 2, 5, 1, 6, 4};
 Plane Surface(1) = {1};
-Transfinite Curve{1} = n + 1;
+If (!adapted)
+  Transfinite Curve{1} = n + 1;
+EndIf
 Field[1] = Distance;
 Field[1].PointsList = {4, 5};
 Field[2] = Threshold;

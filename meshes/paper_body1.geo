@@ -7,7 +7,8 @@
 // diagonal the same way, so the meshes of n and 2n are nested (a P1 field of one is a P1 field
 // of the other, and convergence studies measure errors exactly); structured = 0 gives a
 // frontal-Delaunay mesh of size h with n uniform elements on Γ_C.
-DefineConstant[ n = 24, structured = 1 ];
+DefineConstant[ n = 24, structured = 1, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): no Transfinite line, so the sizes rule.
 If (n < 1 || n != Floor(n))
   Error("paper_body1.geo: n = %g must be a positive integer", n);
   Abort;
@@ -29,8 +30,10 @@ Line(4) = {4, 5};
 Line(5) = {5, 1};
 Curve Loop(1) = {1, 2, 3, 4, 5};
 Plane Surface(1) = {1};
-Transfinite Curve{1} = n + 1;
-If (structured)
+If (!adapted)
+  Transfinite Curve{1} = n + 1;
+EndIf
+If (structured && !adapted)
   Transfinite Curve{2, 5} = n + 1;
   Transfinite Curve{3, 4} = n / 2 + 1;
   Transfinite Surface{1} = {1, 2, 3, 5} Left;

@@ -4,7 +4,8 @@
 // n = number of elements along each side (h = 6/n); structured = 1 gives a transfinite mesh
 // (the same with every gmsh version; every diagonal the same way, so n and 2n are nested),
 // structured = 0 a frontal-Delaunay mesh with n uniform elements on Γ_C.
-DefineConstant[ n = 32, structured = 1 ];
+DefineConstant[ n = 32, structured = 1, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): no Transfinite line, so the sizes rule.
 If (n < 1 || n != Floor(n))
   Error("paper_body2.geo: n = %g must be a positive integer", n);
   Abort;
@@ -20,8 +21,10 @@ Line(3) = {2, 3};
 Line(4) = {1, 2};
 Curve Loop(1) = {1, 4, 3, 2};
 Plane Surface(1) = {1};
-Transfinite Curve{1} = n + 1;
-If (structured)
+If (!adapted)
+  Transfinite Curve{1} = n + 1;
+EndIf
+If (structured && !adapted)
   Transfinite Curve{2, 3, 4} = n + 1;
   Transfinite Surface{1} = {1, 2, 3, 4} Left;
 EndIf

@@ -3,7 +3,8 @@
 // n = number of elements along the bottom and the top (uniform there, so that two rectangles
 // sharing a side have traces that match when their n match); h = (x1 − x0)/n elsewhere.
 // structured = 1 gives a transfinite mesh, structured = 0 a frontal-Delaunay one.
-DefineConstant[ x0 = 0, x1 = 1, y0 = 0, y1 = 1, n = 10, structured = 0 ];
+DefineConstant[ x0 = 0, x1 = 1, y0 = 0, y1 = 1, n = 10, structured = 0, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): no Transfinite line, so the sizes rule.
 If (n < 1 || n != Floor(n))
   Error("rectangle.geo: n = %g must be a positive integer", n);
   Abort;
@@ -27,8 +28,10 @@ Line(3) = {3, 4};
 Line(4) = {4, 1};
 Curve Loop(1) = {1, 2, 3, 4};
 Plane Surface(1) = {1};
-Transfinite Curve{1, 3} = n + 1;
-If (structured)
+If (!adapted)
+  Transfinite Curve{1, 3} = n + 1;
+EndIf
+If (structured && !adapted)
   Transfinite Curve{2, 4} = Ceil((y1 - y0) / h) + 1;
   Transfinite Surface{1} = {1, 2, 3, 4} Left;
 EndIf

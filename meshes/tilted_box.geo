@@ -2,7 +2,8 @@
 // patch test on a tilted interface (scenes/tilted_patch.toml). side = 1: the part above the line,
 // side = −1: the part below; the line is Γ_C. Labels: 1 Γ_C, 2 right side (x = 2), 3 top or
 // bottom (y = 2 or y = 0), 4 left side (x = 0). n = elements along Γ_C, the same size elsewhere.
-DefineConstant[ n = 6, y0 = 0.6, y1 = 1.4, side = 1 ];
+DefineConstant[ n = 6, y0 = 0.6, y1 = 1.4, side = 1, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): no Transfinite line, so the sizes rule.
 If (n < 1 || n != Floor(n))
   Error("tilted_box.geo: n = %g must be a positive integer", n);
   Abort;
@@ -32,7 +33,9 @@ Else
   Curve Loop(1) = {-4, -3, -2, -1};
 EndIf
 Plane Surface(1) = {1};
-Transfinite Curve{1} = n + 1;
+If (!adapted)
+  Transfinite Curve{1} = n + 1;
+EndIf
 Physical Curve(1) = {1};
 Physical Curve(2) = {2};
 Physical Curve(3) = {3};

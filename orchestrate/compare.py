@@ -139,7 +139,17 @@ def pair_distances(run: Result, reference: Result, pairs: list[tuple[Path, Path]
 
 
 def triangulation(path: Path):
-    """The nodes and triangles of a gmsh mesh file."""
+    """The nodes and triangles of a run's mesh file: gmsh's format, or FreeFEM's, in which a run
+    holds a mesh with triangles below gmshload's area limit (orchestrate/mesh.py, write_freefem):
+    "nv nt nbe", nv lines "x y label", nt lines "i j k region" numbered from 1, then the edges."""
+    with open(path, "rb") as handle:
+        gmsh = handle.read(11) == b"$MeshFormat"
+    if not gmsh:
+        numbers = np.array(Path(path).read_bytes().split(), dtype=float)
+        nodes, triangles = int(numbers[0]), int(numbers[1])
+        points = numbers[3: 3 + 3 * nodes].reshape(nodes, 3)[:, :2]
+        corners = numbers[3 + 3 * nodes: 3 + 3 * nodes + 4 * triangles].reshape(triangles, 4)[:, :3]
+        return points, corners.astype(int) - 1
     import meshio
 
     with contextlib.redirect_stdout(io.StringIO()):  # meshio's gmsh reader prints an empty line

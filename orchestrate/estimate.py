@@ -10,6 +10,7 @@ on a mesh 8 to 32 times finer (docs/usage.md, "Estimated error").
 from __future__ import annotations
 
 import csv
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -20,9 +21,10 @@ from orchestrate.results import Result, load_result
 NAME = "estimate"
 
 
-def estimate(run: str | Path | Result) -> list[dict]:
+def estimate(run: str | Path | Result, target: float | None = None, sizes: tuple[Path, Path] | None = None) -> list[dict]:
     """One row per saved state: t, estimate (η of both bodies), estimate1, estimate2, normV
-    (‖u_h‖_V) and relative (η/‖u_h‖_V)."""
+    (‖u_h‖_V) and relative (η/‖u_h‖_V). With a relative `target`, also each body's element sizes
+    for a mesh whose estimate would be target·‖u_h‖_V, as gmsh views written to `sizes` (mesh.sizes)."""
     result = run if isinstance(run, Result) else load_result(run)
     states = state_times(result)
     if not states:
@@ -35,13 +37,16 @@ def estimate(run: str | Path | Result) -> list[dict]:
         for j, (_, path) in enumerate(states):
             (scratch / f"state_{j:04d}.txt").symlink_to(path.resolve())
         (scratch / "states.txt").write_text(f"{len(states)}\n" + "".join(f"state_{j:04d}.txt\n" for j in range(len(states))))
+        design = ["-target", repr(float(target)), "-sizes1", "sizes1.pos", "-sizes2", "sizes2.pos"] if target else []
         done = run_script(REPO / "edp" / "tools" / "estimate.edp", ["-mesh1", "body1.msh", "-mesh2", "body2.msh",
-                                                                    "-states", "states.txt", "-out", "estimate.csv"],
-                          cwd=scratch)
+                                                                    "-states", "states.txt", "-out", "estimate.csv",
+                                                                    *design], cwd=scratch)
         if done.returncode != 0:
             raise RuntimeError(f"estimate.edp failed for {result.folder}: {done.error_line}")
         with open(scratch / "estimate.csv") as handle:
             rows = [{key: float(value) for key, value in row.items()} for row in csv.DictReader(handle)]
+        for body, path in enumerate(sizes if target else (), 1):
+            shutil.copyfile(scratch / f"sizes{body}.pos", path)
     for row in rows:
         row["relative"] = row["estimate"] / row["normV"] if row["normV"] > 0 else 0.0
     return rows

@@ -1,6 +1,6 @@
 """The child process of orchestrate/mesh.py: mesh one .geo with gmsh's Python API and write it.
 
-    python orchestrate/gmsh_mesher.py SOURCE.geo '{"n": 24}' REFINE TARGET.msh LIMITS
+    python orchestrate/gmsh_mesher.py SOURCE.geo '{"n": 24}' REFINE TARGET.msh LIMITS [SIZES.pos]
 
 It imports gmsh and the standard library only, and exits with gmsh's error lines as its message.
 A .geo is code in gmsh's language, which can run programs and read and write files: before gmsh
@@ -147,7 +147,21 @@ def require_linear_triangles() -> None:
         sys.exit(NOT_P1_TRIANGLES)
 
 
-def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path, limits: dict) -> None:
+def size_field(sizes: Path) -> None:
+    """The element sizes of the view in `sizes` (mesh.sizes: orchestrate adapt's), and those alone:
+    the .geo's point sizes, curvature and boundary extension give way to it."""
+    import gmsh
+
+    gmsh.merge(str(sizes))
+    field = gmsh.model.mesh.field.add("PostView")
+    gmsh.model.mesh.field.setNumber(field, "ViewTag", gmsh.view.getTags()[-1])
+    gmsh.model.mesh.field.setAsBackgroundMesh(field)
+    for name in ("Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature", "Mesh.MeshSizeExtendFromBoundary"):
+        gmsh.option.setNumber(name, 0)
+
+
+def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path, limits: dict,
+         sizes: Path | None = None) -> None:
     bound_resources(limits)
     import gmsh
 
@@ -170,6 +184,8 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path, lim
         gmsh.option.setNumber("Mesh.MshFileVersion", 2.2)
         gmsh.option.setNumber("Mesh.Binary", 0)
         gmsh.option.setNumber("Mesh.PartitionSplitMeshFiles", 0)
+        if sizes is not None:
+            size_field(sizes)
         errors = [line for line in gmsh.logger.get() if line.startswith("Error")]
         if errors:
             raise RuntimeError("; ".join(errors))
@@ -192,4 +208,5 @@ def mesh(source: Path, numbers: dict[str, float], refine: int, target: Path, lim
 
 
 if __name__ == "__main__":
-    mesh(Path(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), Path(sys.argv[4]), json.loads(sys.argv[5]))
+    mesh(Path(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]), Path(sys.argv[4]), json.loads(sys.argv[5]),
+         Path(sys.argv[6]) if len(sys.argv) > 6 else None)

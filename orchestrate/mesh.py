@@ -50,6 +50,9 @@ GMSH_ADDRESS_SPACE = 2 ** 30  # the mesher's address space before it meshes (pyt
 TIME_LIMIT = 1800.0
 
 
+SIZES_BYTES = 256 * 2 ** 20  # a size field's largest file: a view of about a million triangles
+
+
 class MeshError(RuntimeError):
     """gmsh could not mesh a body, or a mesh file is not whole."""
 
@@ -332,16 +335,32 @@ def whole_freefem_mesh(path: Path) -> bool:
     return len(counts) == 3 and data.count(b"\n") == sum(counts) + 1
 
 
-def cache_key(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
-    return sources_key(read_sources(source), numbers, refine)
+def cache_key(source: Path, numbers: dict[str, float], refine: int = 0, sizes: Path | None = None) -> str:
+    return sources_key(read_sources(source), numbers, refine, read_sizes(sizes))
 
 
-def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int) -> str:
+def read_sizes(path: Path | None) -> bytes | None:
+    """A size field for gmsh (mesh.sizes): a gmsh post-processing view of element sizes, as
+    `orchestrate adapt` writes it (View "sizes" {ST(...){...}; ...};), read once, checked for that
+    form and a bounded size; gmsh reads it confined, like a .geo."""
+    if path is None:
+        return None
+    if not path.is_file() or path.stat().st_size > SIZES_BYTES:
+        raise MeshError(f"mesh.sizes: {path} is not a file of at most {SIZES_BYTES} bytes")
+    text = path.read_bytes()
+    if not text.startswith(b'View "') or not text.rstrip().endswith(b"};"):
+        raise MeshError(f"mesh.sizes: {path} is not a gmsh view of element sizes (View \"...\" {{ ST(...){{...}}; }};)")
+    return text
+
+
+def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int, sizes: bytes | None = None) -> str:
     import gmsh
 
     digest = hashlib.sha256()
     for text in [file.text.encode("utf-8", "surrogateescape") for file in files]:
         digest.update(text)
+    if sizes is not None:
+        digest.update(b"sizes:" + hashlib.sha256(sizes).digest())
     digest.update(Path(__file__).with_name("gmsh_mesher.py").read_bytes())
     digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
     digest.update(gmsh.__version__.encode())
@@ -356,22 +375,22 @@ def committed_mesh(source: Path, numbers: dict[str, float], refine: int) -> Path
     return committed if set(numbers) == {"n"} and refine == 0 and own else None
 
 
-def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0) -> str:
+def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0, sizes: Path | None = None) -> str:
     """What determines a body's mesh before it is made: the committed file's content, or the
-    cache key (sources, numbers, gmsh version). Part of a run's completion key."""
-    committed = committed_mesh(source, numbers, refine)
+    cache key (sources, numbers, size field, gmsh version). Part of a run's completion key."""
+    committed = None if sizes else committed_mesh(source, numbers, refine)
     if committed is not None:
         return "committed:" + hashlib.sha256(committed.read_bytes()).hexdigest()
-    return "generated:" + cache_key(source, numbers, refine)
+    return "generated:" + cache_key(source, numbers, refine, sizes)
 
 
 def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: Path | None = None,
-              announce=None, limits: MeshLimits = MeshLimits()) -> Path:
+              announce=None, limits: MeshLimits = MeshLimits(), sizes: Path | None = None) -> Path:
     """The .msh file of a gmsh source with DefineConstant values `numbers` (n among them), its
-    triangles split in four `refine` times (red refinement: the meshes are nested), read back
-    whole; announce() is called when gmsh is to make it (none of a committed or cached mesh),
-    under `limits`."""
-    committed = committed_mesh(source, numbers, refine)
+    element sizes from the view `sizes` when given (read_sizes), its triangles split in four
+    `refine` times (red refinement: the meshes are nested), read back whole; announce() is called
+    when gmsh is to make it (none of a committed or cached mesh), under `limits`."""
+    committed = None if sizes else committed_mesh(source, numbers, refine)
     if committed is not None:
         read_msh(committed)
         return committed
@@ -379,7 +398,8 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     cache.mkdir(parents=True, exist_ok=True)
     remove_orphans(cache)
     files = read_sources(source)  # read once: the key and the mesh are of the same, checked text
-    target = cache / f"{source.stem}-{sources_key(files, numbers, refine)}.msh"
+    field = read_sizes(sizes)
+    target = cache / f"{source.stem}-{sources_key(files, numbers, refine, field)}.msh"
     if target.exists():
         try:
             read_msh(target)
@@ -390,7 +410,7 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     if announce:
         announce()
     try:
-        generate(files, numbers, refine, partial, limits)
+        generate(files, numbers, refine, partial, limits, field)
         read_msh(partial)
         os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     finally:
@@ -423,7 +443,7 @@ def stop_meshing() -> None:
 
 
 def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, target: Path,
-             limits: MeshLimits = MeshLimits()) -> None:
+             limits: MeshLimits = MeshLimits(), sizes: bytes | None = None) -> None:
     """Mesh the sources, from their private copies, in a fresh Python process under `limits`:
     gmsh keeps every -setnumber value for the life of the process (initialize/finalize do not
     reset them), so meshing in-process would give a later body the constants of an earlier one
@@ -438,6 +458,9 @@ def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, targe
     try:
         command = [sys.executable, str(child), str(write_copies(files, folder)), json.dumps(numbers), str(refine),
                    str(target), json.dumps(resources)]
+        if sizes is not None:  # beside the copies: the one folder the confined mesher may read
+            (folder / "sizes.pos").write_bytes(sizes)
+            command.append(str(folder / "sizes.pos"))
         process = subprocess.Popen(dying_with_parent(command), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    text=True, errors="replace", start_new_session=True)
         with _children_lock:

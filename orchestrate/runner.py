@@ -209,13 +209,14 @@ def inputs_of(scene: Scene) -> dict:
     data = scene.model_dump(mode="json")
     data["output"] = {key: value for key, value in data["output"].items() if key not in RESULT_FREE}
     for body in ("body1", "body2"):  # where a .geo lives changes no result: its text is in "meshes"; nor
-        data[body]["mesh"].pop("geo")  # does the time gmsh may take
+        data[body]["mesh"].pop("geo")  # does the time gmsh may take, nor where its size field is (its text is)
         data[body]["mesh"].pop("timeLimit")
+        data[body]["mesh"].pop("sizes")
     parts = {"scene": hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest(),
              "freefemScene": hashlib.sha256(result_code(scene).encode()).hexdigest(),
              "solver": solver_identity(MAIN),
-             "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine)
-                        for body in (scene.body1, scene.body2)]}
+             "meshes": [meshing.mesh_identity(body.mesh.source(), body.mesh.numbers(), body.mesh.refine,
+                                              body.mesh.size_field()) for body in (scene.body1, scene.body2)]}
     parts["digest"] = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return parts
 
@@ -396,7 +397,7 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
     try:
         futures = [pool.submit(meshing.body_mesh, b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache,
                                lambda index=index: bar.phase(f"meshing body {index} (gmsh)"),
-                               meshing.MeshLimits(f"body{index}", b.mesh.timeLimit, trust_geo))
+                               meshing.MeshLimits(f"body{index}", b.mesh.timeLimit, trust_geo), b.mesh.size_field())
                    for index, b in enumerate(bodies, 1)]
         wait(futures, return_when=FIRST_EXCEPTION)
         paths = [future.result() for future in futures]

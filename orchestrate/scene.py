@@ -136,6 +136,10 @@ class Mesh(Strict):
     structured: bool | None = Field(None, strict=True, description="a structured (transfinite) mesh, where the .geo "
                                                                     "offers one")
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
+    sizes: str | None = Field(None, description="a gmsh view of element sizes (View \"...\" {ST(...){...}; ...};) that "
+                                                "sets the mesh's sizes, as `orchestrate adapt` writes it: absolute, or "
+                                                "relative to the scene file's folder; the .geo's constant adapted is "
+                                                "then 1 (no Transfinite lines) where it has one")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = Field(
         {}, description="other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
     contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
@@ -182,8 +186,24 @@ class Mesh(Strict):
         folder = (info.context or {}).get("folder") or Path.cwd()
         return str(geo_path(value, Path(folder)))
 
+    @field_validator("sizes")
+    @classmethod
+    def sizes_file(cls, value, info: ValidationInfo):
+        """Resolved once, when the scene is read, like geo; read and checked when the mesh is made."""
+        if value is None:
+            return value
+        path = Path(value)
+        if not path.is_absolute():
+            path = Path((info.context or {}).get("folder") or Path.cwd()) / path
+        if not path.is_file():
+            raise ValueError(f"sizes: {path} is not a file")
+        return str(path.resolve())
+
     def source(self) -> Path:
         return MESHES / "rectangle.geo" if self.rectangle is not None else Path(self.geo)
+
+    def size_field(self) -> Path | None:
+        return Path(self.sizes) if self.sizes is not None else None
 
     def numbers(self) -> dict[str, float]:
         """The gmsh -setnumber values for this mesh."""
@@ -192,6 +212,8 @@ class Mesh(Strict):
             numbers.update(zip(("x0", "x1", "y0", "y1"), self.rectangle))
         if self.structured is not None:
             numbers["structured"] = int(self.structured)
+        if self.sizes is not None and "adapted" in geo_constants(self.source()):
+            numbers["adapted"] = 1
         numbers.update(self.parameters)
         return numbers
 

@@ -242,6 +242,19 @@ def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
         paired_states(blocks, Result(tmp_path / "empty"), tmp_path)
 
 
+def test_compare_reads_a_run_s_mesh_in_freefem_s_format_as_in_gmsh_s(tmp_path):
+    """A run holds a mesh with triangles below gmshload's area limit in FreeFEM's format
+    (orchestrate/mesh.py, write_freefem): compare reads it as the same nodes and triangles."""
+    from orchestrate.compare import triangulation
+    from orchestrate.mesh import write_freefem
+
+    source = gmsh_mesh("meshes/rectangle.geo", tmp_path / "gmsh.msh", x1=2, y0=0, y1=1, n=7)
+    write_freefem(source, tmp_path / "freefem.msh")
+    (points, triangles), (same_points, same_triangles) = (triangulation(path) for path in (source, tmp_path / "freefem.msh"))
+    np.testing.assert_array_equal(points, same_points)
+    np.testing.assert_array_equal(triangles, same_triangles)
+
+
 def test_compare_writes_a_new_folder_and_replaces_only_its_own_files_never_through_a_link(blocks, tmp_path):
     """A second comparison into one folder asks for --force; --force replaces its own three files
     (a link among them unlinked, its target kept); a folder of the user's files is refused."""

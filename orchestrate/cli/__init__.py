@@ -1,6 +1,7 @@
-"""python -m orchestrate {run,sweep,plot,render,compare,estimate,gallery,study,bench,reference}:
-scenes, parameter sweeps and their plots, images, runs compared, a run's error estimated, the
-gallery, studies, the benchmark and the scene format's reference from the shell.
+"""python -m orchestrate {run,sweep,plot,render,compare,estimate,adapt,gallery,study,bench,
+reference}: scenes, parameter sweeps and their plots, images, runs compared, a run's error
+estimated, meshes adapted to it, the gallery, studies, the benchmark and the scene format's
+reference from the shell.
 
 Each command has a module here (orchestrate/cli/NAME.py: its arguments, add_arguments, and what
 it does with them, command), over the package's functions; argparse stays in this folder. This
@@ -16,7 +17,7 @@ from orchestrate.freefem import InputError, SolverError
 from orchestrate.mesh import MeshError
 
 COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
-                 ("run", "sweep", "plot", "render", "compare", "estimate", "gallery", "bench", "reference"))
+                 ("run", "sweep", "plot", "render", "compare", "estimate", "adapt", "gallery", "bench", "reference"))
 STUDIES = tuple(f"orchestrate.cli.{name}" for name in ("convergence", "stability", "hertz", "modeone", "cantilever"))
 
 

@@ -1,0 +1,70 @@
+"""Meshes designed from an error estimate (orchestrate/adapt.py, mesh.sizes, edp/tools/estimate.edp).
+
+- a size field (a gmsh view) sets a body's element sizes, from the body's own .geo with its
+  labels; the .geo's constant adapted drops its Transfinite lines, so Γ_C follows the field too,
+  and without a field the committed and cached meshes are the ones they were;
+- on the paper's scene the loop from a coarse pilot reaches its target in a few designs, every run
+  a complete run folder, and the adapted mesh is closer to a fine run than a uniform mesh with more
+  nodes (the point of adapting)."""
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+
+from orchestrate import compare, run
+from orchestrate.freefem import REPO
+from orchestrate.mesh import MeshError, body_mesh, cache_key
+
+RECTANGLE = REPO / "meshes" / "rectangle.geo"
+
+
+def size_view(path, sizes):
+    """A view over the unit square: the sizes at its corners (0,0), (1,0), (1,1), (0,1)."""
+    a, b, c, d = sizes
+    path.write_text('View "sizes" {\n'
+                    f"ST(0,0,0,1,0,0,1,1,0){{{a},{b},{c}}};\n"
+                    f"ST(0,0,0,1,1,0,0,1,0){{{a},{c},{d}}};\n}};\n")
+    return path
+
+
+@pytest.mark.solver
+def test_a_size_field_grades_a_body_from_its_own_geo(tmp_path):
+    view = size_view(tmp_path / "sizes.pos", (0.02, 0.3, 0.3, 0.3))
+    graded = meshio.read(body_mesh(RECTANGLE, {"n": 4, "adapted": 1}, cache=tmp_path, sizes=view))
+    points = graded.points[:, :2]
+    near, far = (np.hypot(*points.T) < 0.2).sum(), (np.hypot(*(points - 1).T) < 0.2).sum()
+    assert near > 10 * max(far, 1), (near, far)
+    bottom = np.sort(points[np.abs(points[:, 1]) < 1e-12, 0])
+    steps = np.diff(bottom)
+    assert steps.min() < 0.05 and steps.max() > 0.15  # Γ_C (label 1) graded: no Transfinite line
+    assert set(graded.cell_data_dict["gmsh:physical"]["line"]) == {1, 2, 3, 4}
+    uniform = meshio.read(body_mesh(RECTANGLE, {"n": 4}, cache=tmp_path)).points  # no field: Γ_C's n segments
+    np.testing.assert_allclose(np.sort(uniform[np.abs(uniform[:, 1]) < 1e-12, 0]), np.linspace(0, 1, 5), atol=1e-12)
+    assert cache_key(RECTANGLE, {"n": 4, "adapted": 1}, sizes=view) != cache_key(RECTANGLE, {"n": 4, "adapted": 1})
+    (tmp_path / "not-a-view.pos").write_text("Merge 'elsewhere.msh';\n")
+    with pytest.raises(MeshError, match="not a gmsh view of element sizes"):
+        body_mesh(RECTANGLE, {"n": 4, "adapted": 1}, cache=tmp_path, sizes=tmp_path / "not-a-view.pos")
+
+
+PILOT = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.scheme": "bdf2", "time.N": 10, "output.images": False}
+
+
+@pytest.mark.runs
+def test_the_adapt_loop_reaches_its_target_with_fewer_nodes_than_a_uniform_mesh(tmp_path):
+    from orchestrate.adapt import adapt
+    from orchestrate.results import load_result
+
+    rows = adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapt", 0.03, overrides=PILOT, progress=False)
+    assert rows[0]["relative"] > 0.1 and rows[-1]["relative"] <= 0.03 and len(rows) <= 4
+    assert all(later["relative"] < earlier["relative"] for earlier, later in zip(rows, rows[1:]))
+    for row in rows:
+        load_result(tmp_path / "adapt" / row["folder"])  # each a whole run folder, through its manifest
+    assert (tmp_path / "adapt" / "sizes" / "cycle1" / "body1.pos").is_file()
+    assert "Reached at cycle" in (tmp_path / "adapt" / "README.md").read_text()
+    fine = run(REPO / "scenes" / "paper.toml", tmp_path / "n96", {**PILOT, "body1.mesh.n": 96, "body2.mesh.n": 128})
+    uniform = run(REPO / "scenes" / "paper.toml", tmp_path / "n24", {**PILOT, "body1.mesh.n": 24, "body2.mesh.n": 32})
+    adapted = load_result(tmp_path / "adapt" / rows[-1]["folder"])
+    nodes = rows[-1]["nodes1"] + rows[-1]["nodes2"]
+    assert nodes < 625 + 1089  # uniform n = 24: 25² + 33² nodes
+    assert compare(adapted, fine).rows[-1]["errorV"] < 0.8 * compare(uniform, fine).rows[-1]["errorV"]
