@@ -30,6 +30,8 @@ For i In {0 : points - 1}
 EndFor
 Field[2 * points + 1] = Min;
 Field[2 * points + 1].FieldsList = {points + 1 : 2 * points};
-Background Field = 2 * points + 1;
+If (!adapted)  // the includer's constant: a size field of orchestrate adapt sets the sizes instead
+  Background Field = 2 * points + 1;
+EndIf
 Mesh.MeshSizeFromPoints = 0;
 Mesh.MeshSizeExtendFromBoundary = 0;

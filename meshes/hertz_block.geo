@@ -1,7 +1,8 @@
 // The block of the Hertz scene (scenes/hertz.toml): (−w/2, w/2)×(−w, 0), its top the contact side.
 // Labels: 1 top (Γ_C), 2 right, 3 bottom, 4 left. Size hc = 1/n within `zone` of the origin (where
 // the cylinder touches), growing linearly to hfar = ratio·hc at distance `reach` (gmsh Distance/Threshold).
-DefineConstant[ n = 8, w = 20, zone = 1.5, reach = 8, ratio = 16 ];
+DefineConstant[ n = 8, w = 20, zone = 1.5, reach = 8, ratio = 16, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): the size field alone sets the sizes.
 If (n < 1 || n != Floor(n))
   Error("hertz_block.geo: n = %g must be a positive integer", n);
   Abort;
@@ -32,7 +33,9 @@ Field[2].SizeMin = hc;
 Field[2].SizeMax = hfar;
 Field[2].DistMin = zone;
 Field[2].DistMax = reach;
-Background Field = 2;
+If (!adapted)
+  Background Field = 2;
+EndIf
 Mesh.MeshSizeFromPoints = 0;
 Mesh.MeshSizeExtendFromBoundary = 0;
 Physical Curve(1) = {1, 2};

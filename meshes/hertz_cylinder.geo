@@ -3,7 +3,8 @@
 // the diameter y = R; less: a rounded cap). Labels: 1 the lower arc (Γ_C, touching the block at
 // the origin), 2 the flat top (pressed). Size hc = 1/n within `zone` of the origin, growing linearly to hfar = ratio·hc at distance
 // `reach`; the arc is meshed as a polyline through its nodes (a curved contact side, docs/model.md §10).
-DefineConstant[ n = 8, R = 8, angle = 180, zone = 1.5, reach = 6, ratio = 8 ];
+DefineConstant[ n = 8, R = 8, angle = 180, zone = 1.5, reach = 6, ratio = 8, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): the size field alone sets the sizes.
 If (n < 1 || n != Floor(n))
   Error("hertz_cylinder.geo: n = %g must be a positive integer", n);
   Abort;
@@ -36,7 +37,9 @@ Field[2].SizeMin = hc;
 Field[2].SizeMax = hfar;
 Field[2].DistMin = zone;
 Field[2].DistMax = reach;
-Background Field = 2;
+If (!adapted)
+  Background Field = 2;
+EndIf
 Mesh.MeshSizeFromPoints = 0;
 Mesh.MeshSizeExtendFromBoundary = 0;
 Physical Curve(1) = {1, 2};

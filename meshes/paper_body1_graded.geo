@@ -5,7 +5,8 @@
 // the loaded top and the error is largest. The edge of the contact zone (near (3.75,0)) and body
 // 2's corner (6,−6) are left out: refining there cost nodes without lowering the error
 // (docs/model-choices.md, "Graded meshes").
-DefineConstant[ n = 6, grade = 0.3, loadedCornerGrade = 0.6, radius = 2 ];
+DefineConstant[ n = 6, grade = 0.3, loadedCornerGrade = 0.6, radius = 2, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): the size field alone sets the sizes.
 If (n < 1 || n != Floor(n))
   Error("paper_body1_graded.geo: n = %g must be a positive integer", n);
   Abort;

@@ -1,7 +1,8 @@
 // Body 2 of the paper's scene (labels as paper_body2.geo: 1 Γ_C, 2 right, 3 bottom, 4 left),
 // graded toward the end (6,0) of Γ_C by the power law of graded_size.geo. Its other end (0,0)
 // is left out: the error there is small (docs/model-choices.md, "Graded meshes").
-DefineConstant[ n = 3, grade = 0.4, radius = 6 ];
+DefineConstant[ n = 3, grade = 0.4, radius = 6, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): the size field alone sets the sizes.
 If (n < 1 || n != Floor(n))
   Error("paper_body2_graded.geo: n = %g must be a positive integer", n);
   Abort;

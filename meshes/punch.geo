@@ -4,7 +4,8 @@
 // one-to-one, docs/model.md §10), 2 the top (pressed), 3 the sides; with split = 1 the corners are
 // label 4 (a contact boundary of two labels, mesh.contactLabel = [1, 4]; the mesh is the same).
 // Uniform size h = (2w + 2r)/n.
-DefineConstant[ n = 24, w = 0.75, r = 0.5, H = 1.5, gap = 0.02, split = 0 ];
+DefineConstant[ n = 24, w = 0.75, r = 0.5, H = 1.5, gap = 0.02, split = 0, adapted = 0 ];
+// adapted = 1 (set by orchestrate adapt, with a size field): the size field alone sets the sizes.
 If (n < 1 || n != Floor(n))
   Error("punch.geo: n = %g must be a positive integer", n);
   Abort;

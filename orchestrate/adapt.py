@@ -5,8 +5,9 @@ Zienkiewicz–Zhu recovery of the strains, the largest η/‖u_h‖_V over the s
 target, each body is meshed again from its own .geo with the element sizes the estimate designs
 (a gmsh view, mesh.sizes; the .geo's constant adapted = 1 drops its Transfinite lines, so Γ_C is
 graded too) and the scene runs again. Every run is a plain run of the scene, in out/runs/cycleN
-with its manifest, meshes and restart as any other; the size fields are kept in
-out/sizes/cycleN, and out/adapt.csv lists each cycle's nodes, estimate and wall time. No state
+with its manifest, meshes and restart as any other; the size fields it ran on are kept in
+out/sizes/cycleN, and out/adapt.csv lists each cycle's nodes, estimate and wall time (written after
+every cycle, so a loop that fails keeps the record of those it finished). No state
 passes from one run to the next: each is the scene's whole run on its own meshes.
 """
 from __future__ import annotations
@@ -57,10 +58,11 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
         rows.append({"cycle": cycle, "nodes1": established["nodes1"], "nodes2": established["nodes2"],
                      "estimate": worst["estimate"], "relative": worst["relative"], "seconds": seconds,
                      "folder": f"runs/cycle{cycle}"})
+        write_csv(out / "adapt.csv", rows, COLUMNS)  # the cycles so far, should a later one fail
         if worst["relative"] <= target or cycle == cycles:
+            shutil.rmtree(design)  # no run takes it
             break
         sizes = {f"body{body}.mesh.sizes": str(path.resolve()) for body, path in enumerate(paths, 1)}
-    write_csv(out / "adapt.csv", rows, COLUMNS)
     write_text(out / "README.md", report(rows, scene, target))
     return rows
 

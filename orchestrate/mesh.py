@@ -339,17 +339,34 @@ def cache_key(source: Path, numbers: dict[str, float], refine: int = 0, sizes: P
     return sources_key(read_sources(source), numbers, refine, read_sizes(sizes))
 
 
-def read_sizes(path: Path | None) -> bytes | None:
-    """A size field for gmsh (mesh.sizes): a gmsh post-processing view of element sizes, as
-    `orchestrate adapt` writes it (View "sizes" {ST(...){...}; ...};), read once, checked for that
-    form and a bounded size; gmsh reads it confined, like a .geo."""
+# A size field's lines, as edp/tools/estimate.edp writes them and nothing else: gmsh parses the
+# file with its .geo language, so any other line could be a command.
+SIZES_OPEN, SIZES_CLOSE = b'View "sizes" {', b"};"
+NUMBER = rb"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+SIZES_LINE = re.compile(rb"ST\(" + rb",".join([NUMBER] * 9) + rb"\)\{" + rb",".join([NUMBER] * 3) + rb"\};")
+
+
+def read_sizes(path: Path | None, key: str = "mesh.sizes") -> bytes | None:
+    """A size field for gmsh (`key`, bodyN.mesh.sizes): a gmsh view of element sizes as `orchestrate
+    adapt` writes it, View "sizes" { one ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){h1,h2,h3}; a line }; and
+    nothing else, every size a positive number, of a bounded length; read once. gmsh reads it (by
+    its .geo parser, confined where the kernel can), so a file of any other form is refused."""
     if path is None:
         return None
     if not path.is_file() or path.stat().st_size > SIZES_BYTES:
-        raise MeshError(f"mesh.sizes: {path} is not a file of at most {SIZES_BYTES} bytes")
+        raise MeshError(f"{key}: {path} is not a file of at most {SIZES_BYTES} bytes")
     text = path.read_bytes()
-    if not text.startswith(b'View "') or not text.rstrip().endswith(b"};"):
-        raise MeshError(f"mesh.sizes: {path} is not a gmsh view of element sizes (View \"...\" {{ ST(...){{...}}; }};)")
+    lines = text.split(b"\n")
+    if lines and lines[-1] == b"":
+        lines.pop()
+    wrong = next((j for j, line in enumerate(lines[1:-1], 2) if not SIZES_LINE.fullmatch(line)), None)
+    if len(lines) < 3 or lines[0] != SIZES_OPEN or lines[-1] != SIZES_CLOSE or wrong is not None:
+        where = f" (line {wrong})" if wrong is not None else ""
+        raise MeshError(f"{key}: {path} is not a gmsh view of element sizes as orchestrate adapt writes one{where}: "
+                        f'{SIZES_OPEN.decode()} ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){{h1,h2,h3}}; ... {SIZES_CLOSE.decode()}')
+    sizes = np.array(re.findall(NUMBER, b" ".join(lines[1:-1])), dtype=float).reshape(-1, 12)[:, 9:]
+    if not (np.isfinite(sizes).all() and (sizes > 0).all()):
+        raise MeshError(f"{key}: {path} holds a size that is not a positive number")
     return text
 
 
@@ -398,7 +415,7 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     cache.mkdir(parents=True, exist_ok=True)
     remove_orphans(cache)
     files = read_sources(source)  # read once: the key and the mesh are of the same, checked text
-    field = read_sizes(sizes)
+    field = read_sizes(sizes, f"{limits.body}.mesh.sizes")
     target = cache / f"{source.stem}-{sources_key(files, numbers, refine, field)}.msh"
     if target.exists():
         try:
@@ -481,6 +498,7 @@ def generate(files: list[GeoFile], numbers: dict[str, float], refine: int, targe
     target.unlink(missing_ok=True)
     for index, file in enumerate(files):  # gmsh names the copies; the user knows the sources
         stderr = stderr and stderr.replace(str(folder / copy_name(index, file.path)), str(file.path))
+    stderr = stderr and stderr.replace(str(folder / "sizes.pos"), f"{limits.body}.mesh.sizes")
     raise failure(files[0].path, numbers, refine, limits, resources, process.returncode, stderr)
 
 

@@ -138,8 +138,8 @@ class Mesh(Strict):
     refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
     sizes: str | None = Field(None, description="a gmsh view of element sizes (View \"...\" {ST(...){...}; ...};) that "
                                                 "sets the mesh's sizes, as `orchestrate adapt` writes it: absolute, or "
-                                                "relative to the scene file's folder; the .geo's constant adapted is "
-                                                "then 1 (no Transfinite lines) where it has one")
+                                                "relative to the scene file's folder; the .geo's constant adapted "
+                                                "(which it must define) is then 1: no Transfinite lines")
     parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = Field(
         {}, description="other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
     contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
@@ -165,6 +165,10 @@ class Mesh(Strict):
         ignored by gmsh without a word."""
         own = {"n", "structured"} | ({"x0", "x1", "y0", "y1"} if self.rectangle is not None else set())
         constants = geo_constants(self.source())
+        if self.sizes is not None and "adapted" not in constants:
+            raise ValueError(f"sizes: {self.source().name} has no constant adapted, by which a .geo that a size "
+                             "field may grade leaves out its Transfinite lines (DefineConstant[ adapted = 0 ] and "
+                             "If (!adapted) ... EndIf around them, as meshes/rectangle.geo)")
         if self.structured is not None and "structured" not in constants:
             raise ValueError(f"structured: {self.source().name} has no structured mesh to choose (it defines "
                              f"{', '.join(constants)})")
@@ -212,7 +216,7 @@ class Mesh(Strict):
             numbers.update(zip(("x0", "x1", "y0", "y1"), self.rectangle))
         if self.structured is not None:
             numbers["structured"] = int(self.structured)
-        if self.sizes is not None and "adapted" in geo_constants(self.source()):
+        if self.sizes is not None:
             numbers["adapted"] = 1
         numbers.update(self.parameters)
         return numbers

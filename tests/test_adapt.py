@@ -42,9 +42,28 @@ def test_a_size_field_grades_a_body_from_its_own_geo(tmp_path):
     uniform = meshio.read(body_mesh(RECTANGLE, {"n": 4}, cache=tmp_path)).points  # no field: Γ_C's n segments
     np.testing.assert_allclose(np.sort(uniform[np.abs(uniform[:, 1]) < 1e-12, 0]), np.linspace(0, 1, 5), atol=1e-12)
     assert cache_key(RECTANGLE, {"n": 4, "adapted": 1}, sizes=view) != cache_key(RECTANGLE, {"n": 4, "adapted": 1})
-    (tmp_path / "not-a-view.pos").write_text("Merge 'elsewhere.msh';\n")
-    with pytest.raises(MeshError, match="not a gmsh view of element sizes"):
-        body_mesh(RECTANGLE, {"n": 4, "adapted": 1}, cache=tmp_path, sizes=tmp_path / "not-a-view.pos")
+    # gmsh parses a view with its .geo language: a file of any other form than adapt's is refused
+    lines = view.read_text().splitlines()
+    for name, text, words in (("merge", "Merge 'elsewhere.msh';\n", "not a gmsh view"),
+                              ("command", "\n".join([*lines[:2], 'SystemCall "touch x";', *lines[2:]]) + "\n", "line 3"),
+                              ("negative", view.read_text().replace("{0.02,", "{-0.02,"), "not a positive number")):
+        (tmp_path / f"{name}.pos").write_text(text)
+        with pytest.raises(MeshError, match=words):
+            body_mesh(RECTANGLE, {"n": 4, "adapted": 1}, cache=tmp_path, sizes=tmp_path / f"{name}.pos")
+
+
+@pytest.mark.unit
+def test_a_size_field_needs_a_geo_that_can_drop_its_transfinite_lines(tmp_path):
+    from orchestrate.scene import Scene, SceneError
+
+    view = size_view(tmp_path / "sizes.pos", (0.1, 0.1, 0.1, 0.1))
+    own = tmp_path / "own.geo"  # a user's .geo, with Transfinite lines adapt cannot drop
+    own.write_text((REPO / "meshes" / "paper_body2.geo").read_text().replace(", adapted = 0", "")
+                   .replace("If (!adapted)", "If (1)").replace("structured && !adapted", "structured"))
+    with pytest.raises(SceneError, match="body2.mesh: sizes: own.geo has no constant adapted"):
+        Scene.load(REPO / "scenes" / "paper.toml", {"body2.mesh.geo": str(own), "body2.mesh.sizes": str(view)})
+    scene = Scene.load(REPO / "scenes" / "paper.toml", {"body1.mesh.sizes": str(view)})
+    assert scene.body1.mesh.numbers()["adapted"] == 1 and "adapted" not in scene.body2.mesh.numbers()
 
 
 PILOT = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.scheme": "bdf2", "time.N": 10, "output.images": False}

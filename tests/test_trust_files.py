@@ -339,3 +339,57 @@ def test_a_refused_restart_leaves_the_results_in_its_output_folder(tmp_path):
     refused = run_script(MAIN, [*DRIVER_RUN, "-restart", empty, "-out", out])
     assert refused.returncode == 3 and "holds no whole checkpoint" in refused.error_line
     assert {name: (out / name).read_bytes() for name in before} == before
+
+
+def vtu(points: str, u: str) -> str:
+    """A body file as the driver writes one: 3 points, one triangle and one boundary edge (cells),
+    u binary (UInt32 header, then the values) and zeta ascii."""
+    return f"""<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" byte_order="LittleEndian">
+<UnstructuredGrid>
+<Piece NumberOfPoints="3" NumberOfCells="2">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{points}</DataArray></Points>
+<Cells>
+<DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 0 1</DataArray>
+<DataArray type="Int32" Name="offsets" format="ascii">3 5</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">5 3</DataArray>
+</Cells>
+<PointData>
+<DataArray type="Float64" Name="u" NumberOfComponents="3" format="binary">{u}</DataArray>
+<DataArray type="Float64" Name="zeta" NumberOfComponents="1" format="ascii">1 1 1</DataArray>
+</PointData>
+</Piece>
+</UnstructuredGrid>
+</VTKFile>
+"""
+
+
+@pytest.mark.unit
+def test_a_body_file_is_read_back_whole_value_by_value(tmp_path):
+    """manifest.py checks a .vtu without a VTK reader: a file whose XML is whole but that holds a
+    value less than its Piece says, or a binary block shorter than its header, is refused; the
+    whole one passes, its boundary edges not counted as triangles."""
+    import base64
+    import struct
+
+    from orchestrate.manifest import IncompleteRun, _check_vtu
+
+    def binary(values, header=None):
+        payload = struct.pack(f"<{len(values)}d", *values)
+        return base64.b64encode(struct.pack("<I", len(payload) if header is None else header) + payload).decode()
+
+    coordinates, facts = "0 0 0 1 0 0 0 1 0", {"nodes1": 3, "triangles1": 1}
+    path = tmp_path / "body1_0001.vtu"
+    path.write_text(vtu(coordinates, binary([0.0] * 9)))
+    _check_vtu(path, facts)
+    for points, u in ((coordinates, binary([0.0] * 8)), (coordinates, binary([0.0] * 9, header=80)),
+                      ("0 0 0 1 0 0 0 1", binary([0.0] * 9))):
+        path.write_text(vtu(points, u))
+        with pytest.raises(IncompleteRun, match="cannot be read back"):
+            _check_vtu(path, facts)
+    path.write_text(vtu(coordinates, binary([0.0] * 9)).replace("<Points>", "<Nodes>").replace("</Points>", "</Nodes>"))
+    with pytest.raises(IncompleteRun, match="no single Points array"):
+        _check_vtu(path, facts)
+    path.write_text(vtu(coordinates, binary([0.0] * 9)))
+    with pytest.raises(IncompleteRun, match="3 points and 1 triangles \\(expected 3 and 2\\)"):
+        _check_vtu(path, {"nodes1": 3, "triangles1": 2})
