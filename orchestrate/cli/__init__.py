@@ -18,7 +18,8 @@ from orchestrate.mesh import MeshError
 
 COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
                  ("run", "sweep", "plot", "render", "compare", "estimate", "adapt", "gallery", "bench", "reference"))
-STUDIES = tuple(f"orchestrate.cli.{name}" for name in ("convergence", "stability", "hertz", "modeone", "cantilever"))
+STUDIES = tuple(f"orchestrate.cli.{name}" for name in
+                ("convergence", "stability", "hertz", "modeone", "cantilever", "adaptivity"))
 
 
 class DefaultsShown(argparse.HelpFormatter):
@@ -63,7 +64,7 @@ def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     add_commands(commands, wanted)
     if studies:
         study = commands.add_parser("study", help="studies of a scene: convergence, stability, hertz, mode-one, "
-                                                  "cantilever")
+                                                  "cantilever, adaptivity")
         add_commands(study.add_subparsers(dest="kind", required=True), studies)
     return top
 

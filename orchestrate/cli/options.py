@@ -1,5 +1,5 @@
 """What the commands' options share: the types of their values and the options several commands
-take (--force, --trust-geo)."""
+take (--force, --trust-geo, a study's --out)."""
 from __future__ import annotations
 
 import argparse
@@ -52,3 +52,17 @@ def choices_list(allowed) -> callable:
             raise argparse.ArgumentTypeError(f"'{text}' lists a word twice")
         return words
     return parse
+
+
+def add_study_out(parser, name: str) -> None:
+    """--out and --force of `study NAME`, whose results go to results/NAME by default."""
+    parser.add_argument("--out", default=f"results/{name}", help=f"output folder (default results/{name})")
+    add_force_argument(parser, f"study {name}")
+
+
+def show_report(out: str) -> int:
+    """A study's README.md, printed once it is written."""
+    from pathlib import Path
+
+    print((Path(out) / "README.md").read_text())
+    return 0
