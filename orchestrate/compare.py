@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
-from orchestrate.manifest import STATE_ARRAYS, read_state
+from orchestrate.manifest import STATE_ARRAYS, read_state, write_state
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
 
@@ -98,11 +98,8 @@ def interpolated_state(saved: list[tuple[float, Path]], t: float, out: Path) -> 
     if not np.array_equal(first["s"], second["s"]):
         raise RuntimeError(f"{path0} and {path1}: their trace coordinates differ, not states of one run")
     weight = (t - t0) / (t1 - t0)
-    lines = [repr(t)]
-    for name in STATE_ARRAYS:
-        values = (1 - weight) * first[name] + weight * second[name]
-        lines.append(f"{len(values)}\n" + " ".join(repr(float(value)) for value in values))
-    out.write_text("\n".join(lines) + "\n")
+    write_state(out, {"t": t, **{name: (1 - weight) * first[name] + weight * second[name] for name in STATE_ARRAYS},
+                      "s": first["s"]})
     return out
 
 

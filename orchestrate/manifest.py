@@ -52,6 +52,14 @@ def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
     return state
 
 
+def write_state(path: Path, state: dict[str, np.ndarray | float]) -> None:
+    """A state file as edp/lib/stateFile.idp writes one (read_state reads it): t, then each array
+    as its length and values, every value written back exactly (repr)."""
+    lines = [repr(float(state["t"]))]
+    lines += [f"{len(state[name])}\n" + " ".join(repr(float(value)) for value in state[name]) for name in STATE_ARRAYS]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
 class IncompleteRun(RuntimeError):
     """A run folder whose files are missing, cut short or changed since the run finished (a full
     disk or a file-size limit cuts files short without FreeFEM noticing)."""

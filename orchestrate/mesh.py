@@ -346,16 +346,29 @@ NUMBER = rb"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
 SIZES_LINE = re.compile(rb"ST\(" + rb",".join([NUMBER] * 9) + rb"\)\{" + rb",".join([NUMBER] * 3) + rb"\};")
 
 
+_checked_sizes: dict[tuple, bytes] = {}  # size fields checked whole, by (device, inode, size, modification time)
+
+
 def read_sizes(path: Path | None, key: str = "mesh.sizes") -> bytes | None:
     """A size field for gmsh (`key`, bodyN.mesh.sizes): a gmsh view of element sizes as `orchestrate
     adapt` writes it, View "sizes" { one ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){h1,h2,h3}; a line }; and
-    nothing else, every size a positive number, of a bounded length; read once. gmsh reads it (by
-    its .geo parser, confined where the kernel can), so a file of any other form is refused."""
+    nothing else, every size a positive number, of a bounded length. gmsh reads it (by its .geo
+    parser, confined where the kernel can), so a file of any other form is refused. Checked once
+    per process while unchanged (a run's identity and its mesh both read it; a fine design takes
+    seconds to check), as read_msh does."""
     if path is None:
         return None
     if not path.is_file() or path.stat().st_size > SIZES_BYTES:
         raise MeshError(f"{key}: {path} is not a file of at most {SIZES_BYTES} bytes")
-    text = path.read_bytes()
+    stat = path.stat()
+    stamp = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    if stamp not in _checked_sizes:
+        _checked_sizes[stamp] = checked_sizes(path, path.read_bytes(), key)
+    return _checked_sizes[stamp]
+
+
+def checked_sizes(path: Path, text: bytes, key: str) -> bytes:
+    """`text`, the size field read from `path`, if it has read_sizes' form."""
     lines = text.split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()
