@@ -322,6 +322,8 @@ class Time(Strict):
     N: Annotated[Union[int, Literal["auto"]], BeforeValidator(_steps)] = Field(
         PARAMETERS["N"].value(), description=PARAMETERS["N"].meaning + ', or "auto" (with targetError)')
     scheme: Literal[PARAMETERS["scheme"].choices] = field("scheme")
+    startSteps: int = field("startSteps")
+    startSubsteps: int = field("startSubsteps")
     targetError: float | None = Field(None, strict=True, gt=0, le=0.5, allow_inf_nan=False,
                                       description='with N = "auto": the relative time error of u(T) in the V norm '
                                                   'to reach')

@@ -41,11 +41,16 @@ def test_libraries_do_nothing_when_included(tmp_path):
 
 @pytest.mark.unit
 def test_the_driver_declares_no_state_and_its_loop_is_the_scheme():
-    """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is docs/model.md §6's steps."""
+    """Per-body state lives in edp/lib/state.idp; the loop of edp/main.edp is docs/model.md §6's
+    steps, in order, as its macro stepSolve (which a start in substeps, lib/start.idp, runs too)."""
     text = (REPO / "edp" / "main.edp").read_text()
     assert "real[int]" not in text and "Vh1" not in text
+    solve = text[text.index("macro stepSolve\n"):]
+    solve = [line.split()[0] for line in solve[:solve.index("\n//\n")].splitlines()[1:]]
+    assert solve == ["glueLoads", "explicitRhs(1)", "explicitRhs(2)", "contactStep", "damageStep(1)", "damageStep(2)",
+                     "bondingStep", "stepFigures"]
     loop = text[text.index("for (int n = firstStep; n <= nSteps; n++) {"):]
     loop = loop[:loop.index("\n}\n")].splitlines()[1:]
     assert len(loop) <= 16, loop
-    for step in ("contactStep", "damageStep(1)", "damageStep(2)", "bondingStep", "advanceState"):
+    for step in ("stepSolve", "historyRow(n)", "advanceState"):
         assert any(line.strip().startswith(step) for line in loop), step

@@ -27,31 +27,33 @@ def elastic_block(body: int, rectangle: list[float], n: int, contact: int, E: fl
             f"[body{body}.damage]\nlambdaD = 0.0\nlambdaU = 0.0\n" + boundary.replace("BODY", f"body{body}"))
 
 
-def stacked_blocks(folder, pressure: float = -Q, lift: float = 0.0, roller: str = "x", steps: int = 10):
+def stacked_blocks(folder, pressure: float = -Q, lift: float = 0.0, roller: str = "x", steps: int = 10, start: int = 0):
     """Body 1 (0,1)×(−1,0) on rollers at its bottom and left; body 2 (0,1)×(lift, lift + 0.5) held
     only at its left side, in the `roller` component (x: its vertical motion is free), and pressed
     by fy = `pressure` on its top. No damage, no glue; after ten steps of k = 0.1 (the
     semi-implicit scheme damps the viscous response by (1 + kE/η)⁻¹ a step) u is the elastic
-    solution: uniform compression q in both bodies."""
+    solution: uniform compression q in both bodies. start: the first steps in three substeps each."""
     base = ('[[BODY.boundary]]\ntype = "roller"\nlabel = 1\ncomponent = "y"\n'
             '[[BODY.boundary]]\ntype = "roller"\nlabel = 4\ncomponent = "x"\n')
     block = (f'[[BODY.boundary]]\ntype = "roller"\nlabel = 4\ncomponent = "{roller}"\n'
              f'[[BODY.boundary]]\ntype = "traction"\nlabel = 3\nfy = "{pressure}"\n')
     path = folder / "blocks.toml"
     path.write_text(f'title = "a block resting on a block"\n[time]\nT = 1.0\nN = {steps}\nscheme = "semi-implicit"\n'
+                    + f'startSteps = {start}\nstartSubsteps = 3\n'
                     + elastic_block(1, [0.0, 1.0, -1.0, 0.0], 7, 3, E1, base)
                     + elastic_block(2, [0.0, 1.0, lift, lift + 0.5], 5, 1, E2, block)
                     + '[glue]\nbeta0 = 0.0\ngammaR = 0.0\n[output]\nfields = ["contact", "state"]\nimages = false\n')
     return path
 
 
-@pytest.mark.parametrize("lift", [0.0, 0.05])
-def test_a_block_held_by_the_contact_alone_carries_the_uniform_pressure(tmp_path, lift):
+@pytest.mark.parametrize("lift, start", [(0.0, 0), (0.05, 0), (0.05, 2)])
+def test_a_block_held_by_the_contact_alone_carries_the_uniform_pressure(tmp_path, lift, start):
     """Uniform compression, exact in P1 on the non-matching traces: u¹ = (ν q x/E1, −q (y + 1)/E1),
     u² = (ν q x/E2, −q/E1 − q (y − lift)/E2 − lift), the contact pressure q at every node. Body 2's
     vertical translation is held by nothing but the contact, whose force balances the load at
-    every step, from the first (lowered from a gap of `lift`, it closes it in that step)."""
-    result = run(stacked_blocks(tmp_path, lift=lift), tmp_path / "run")
+    every step, from the first (lowered from a gap of `lift`, it closes it in that step); also
+    through a start in substeps, whose operators of k/3 and of k again hold the free mode too."""
+    result = run(stacked_blocks(tmp_path, lift=lift, start=start), tmp_path / "run")
     facts = json.loads((result.folder / "run.json").read_text())
     assert facts["freeMotion1"] == "none" and facts["freeMotion2"] == "y-translation"
     assert np.allclose(result.history["contactForce"], Q, rtol=1e-12)

@@ -85,10 +85,12 @@ def test_a_killed_run_continued_from_its_checkpoint_is_the_uninterrupted_run(tmp
 
 
 # The implicit schemes read two steps back (u, strains, jumps, zeta, beta and the bonding rate):
-# a restart must bring back both, also with the lazily made contact columns of the active set.
-@pytest.mark.parametrize("scheme, kill_at", [("semi-implicit", 140), ("bdf2", 20), ("bdf2", 333)])
-def test_a_killed_run_of_an_implicit_scheme_continues_to_the_bit(tmp_path, scheme, kill_at):
-    extra = ("-scheme", scheme)
+# a restart must bring back both, also with the lazily made contact columns of the active set; and
+# after a start in substeps (lib/start.idp), the levels and operators of steps of k it left.
+@pytest.mark.parametrize("scheme, kill_at, start", [("semi-implicit", 140, ()), ("bdf2", 20, ()), ("bdf2", 333, ()),
+                                                    ("bdf2", 20, ("-startSteps", "3"))])
+def test_a_killed_run_of_an_implicit_scheme_continues_to_the_bit(tmp_path, scheme, kill_at, start):
+    extra = ("-scheme", scheme, *start)
     whole = tmp_path / "whole"
     done = run_script(MAIN, [*DRIVER, *extra, "-out", whole])
     assert done.returncode == 0, done.error_line
