@@ -344,6 +344,7 @@ class Glue(Strict):
     debondMobility: unbounded_field("debondMobility")
     adhesionEnergy: float = field("adhesionEnergy")
     shearDebonding: bool = field("shearDebonding")
+    bondingCoupled: bool = field("bondingCoupled")
     L: float = field("L")
     beta0: initial_value("beta0")
 

@@ -31,38 +31,50 @@ def uniaxial(body):
     return mu + eta, a + E / (1 + nu)
 
 
-def glued_pull(steps, weights, mobility=0.0, energy=0.0):
+def glued_pull(steps, weights, mobility=0.0, energy=0.0, coupled=False):
     """Per step n the traction σⁿ, the opening oⁿ, the strains εᵢⁿ of the blocks and the bonding βⁿ, from
       cᵢ (w₀εᵢⁿ + w₁εᵢⁿ⁻¹ + w₂εᵢⁿ⁻²)/k + eᵢ εᵢⁿ = σⁿ = γ_ν β*² min(max(oⁿ, 0), L)   (each block),
       oⁿ = δⁿ − H₁ε₁ⁿ − H₂ε₂ⁿ   (the opening of Γ_C, δⁿ = PULL_RATE tⁿ),
       w₀βⁿ + w₁βⁿ⁻¹ + w₂βⁿ⁻² = −k m_d (βⁿ Y − ε_a)₊,   Y = γ_ν min(oⁿ, L)²,
     β* = βⁿ⁻¹ (after a two-level step 2βⁿ⁻¹ − βⁿ⁻², clipped to [0, 1]), the first step with the
-    one-level weights (1, −1, 0) in every scheme; m_d = inf: βⁿ = min(βⁿ⁻¹, ε_a/Y) in every scheme."""
+    one-level weights (1, −1, 0) in every scheme; m_d = inf: βⁿ = min(βⁿ⁻¹, ε_a/Y) in every scheme.
+    coupled (glue.bondingCoupled): β* = βⁿ, the two equations solved together (a fixed point on β,
+    iterated here until it stops moving)."""
     k = T / steps
     coefficients = [uniaxial(body) for body in BODIES]
+    heights = np.array(HEIGHT)
     past = np.zeros((2, 2))  # εᵢⁿ⁻¹, εᵢⁿ⁻²
     beta = [1.0, 1.0]  # βⁿ⁻¹, βⁿ⁻²
     history = []
     for n in range(1, steps + 1):
         w = (1.0, -1.0, 0.0) if n == 1 else weights
-        star = beta[0] if n == 1 or w[2] == 0 else min(max(2 * beta[0] - beta[1], 0.0), 1.0)
-        spring = GAMMA_NU * star ** 2
-        delta = PULL_RATE * n * k
         d = np.array([c * w[0] / k + e for c, e in coefficients])
         q = np.array([-c * (w[1] * p[0] + w[2] * p[1]) / k for (c, _), p in zip(coefficients, past)])
-        heights = np.array(HEIGHT)
-        sigma = spring * (delta - heights @ (q / d)) / (1 + spring * np.sum(heights / d))  # the spring
-        strain = (sigma + q) / d
-        if delta - heights @ strain > L:  # past the truncation: the constant traction
-            sigma = spring * L
+        delta = PULL_RATE * n * k
+
+        def step(star):
+            spring = GAMMA_NU * star ** 2
+            sigma = spring * (delta - heights @ (q / d)) / (1 + spring * np.sum(heights / d))  # the spring
             strain = (sigma + q) / d
-        opening = delta - heights @ strain
-        drive = GAMMA_NU * min(opening, L) ** 2
-        start = beta[0] if mobility == "inf" else (-w[1] * beta[0] - w[2] * beta[1]) / w[0]
-        if start * drive > energy:
-            start = energy / drive if mobility == "inf" else \
-                (start + k * mobility / w[0] * energy) / (1 + k * mobility / w[0] * drive)
-        beta = [min(max(start, 0.0), 1.0), beta[0]]
+            if delta - heights @ strain > L:  # past the truncation: the constant traction
+                sigma = spring * L
+                strain = (sigma + q) / d
+            opening = delta - heights @ strain
+            drive = GAMMA_NU * min(opening, L) ** 2
+            start = beta[0] if mobility == "inf" else (-w[1] * beta[0] - w[2] * beta[1]) / w[0]
+            if start * drive > energy:
+                start = energy / drive if mobility == "inf" else \
+                    (start + k * mobility / w[0] * energy) / (1 + k * mobility / w[0] * drive)
+            return sigma, opening, strain, min(max(start, 0.0), 1.0)
+
+        star = beta[0] if n == 1 or w[2] == 0 else min(max(2 * beta[0] - beta[1], 0.0), 1.0)
+        sigma, opening, strain, new = step(star)
+        for _ in range(1000 if coupled else 0):
+            if new == star:
+                break
+            star = new
+            sigma, opening, strain, new = step(star)
+        beta = [new, beta[0]]
         past = np.column_stack([strain, past[:, 0]])
         history.append((sigma, opening, strain, beta[0]))
     return history
@@ -85,14 +97,17 @@ def glued_flags(scheme, steps):
 
 
 @pytest.mark.parametrize("scheme", ["semi-implicit", "bdf2"])
-@pytest.mark.parametrize("mobility, energy", [(0.0, 0.0), (500.0, 5e-4), ("inf", 1e-3)],
-                         ids=["bonded", "debonding", "rate-independent"])
-def test_a_glued_pull_follows_the_spring_in_series_at_every_step(tmp_path, meshes, scheme, mobility, energy):
+@pytest.mark.parametrize("mobility, energy, coupled", [(0.0, 0.0, 0), (500.0, 5e-4, 0), ("inf", 1e-3, 0),
+                                                       (500.0, 5e-4, 1), ("inf", 1e-3, 1)],
+                         ids=["bonded", "debonding", "rate-independent", "debonding-coupled",
+                              "rate-independent-coupled"])
+def test_a_glued_pull_follows_the_spring_in_series_at_every_step(tmp_path, meshes, scheme, mobility, energy, coupled):
     upper, lower = meshes
     steps = 20
     result = solve_ok(tmp_path / "run", "-mesh1", upper, "-mesh2", lower, *glued_flags(scheme, steps),
-                      "-debondMobility", mobility, "-adhesionEnergy", energy, scene=SCENES / "glued.idp")
-    expected = glued_pull(steps, RATE_WEIGHTS[scheme], mobility, energy)
+                      "-debondMobility", mobility, "-adhesionEnergy", energy, "-bondingCoupled", coupled,
+                      scene=SCENES / "glued.idp")
+    expected = glued_pull(steps, RATE_WEIGHTS[scheme], mobility, energy, coupled)
     sigma = np.array([step[0] for step in expected])
     opening = np.array([step[1] for step in expected])
     beta = np.array([step[3] for step in expected])
@@ -141,6 +156,14 @@ def test_the_rate_independent_limit_needs_the_bonding_implicit(tmp_path, meshes)
                     "-debondMobility", "inf", scene=SCENES / "glued.idp")
     assert done.returncode == 3
     assert "debondMobility = inf (the rate-independent limit) needs the bonding step implicit in beta" in done.error_line
+
+
+def test_the_glue_and_the_bonding_together_need_the_glue_implicit(tmp_path, meshes):
+    upper, lower = meshes
+    done, _ = solve(tmp_path / "run", "-mesh1", upper, "-mesh2", lower, *glued_flags("euler", 20),
+                    "-bondingCoupled", 1, scene=SCENES / "glued.idp")
+    assert done.returncode == 3
+    assert "parameter bondingCoupled = 1" in done.error_line and "scheme = semi-implicit or bdf2" in done.error_line
 
 
 @pytest.mark.parametrize("scheme, order", [("semi-implicit", 1), ("bdf2", 2)])

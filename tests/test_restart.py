@@ -102,6 +102,23 @@ def test_a_killed_run_of_an_implicit_scheme_continues_to_the_bit(tmp_path, schem
     same_results(whole, folder)
 
 
+def test_a_run_killed_after_files_before_its_first_checkpoint_continues(tmp_path):
+    """Files written before the first checkpoint (every step's state here; a start in substeps'
+    steps) are sealed by it: the restart from the second takes them, and the result is the
+    uninterrupted run's."""
+    driver = ["-N", "600", "-T", "15", "-outTimes", "all", "-outFields", "state", "-checkpointEvery", "2",
+              "-scheme", "bdf2", "-startSteps", "2"]
+    whole = tmp_path / "whole"
+    done = run_script(MAIN, [*driver, "-out", whole])
+    assert done.returncode == 0, done.error_line
+    folder = tmp_path / "run"
+    killed_driver(folder, 7, driver=driver)
+    done = run_script(MAIN, [*driver, "-out", folder, "-restart", folder])
+    assert done.returncode == 0, done.error_line
+    assert 2 <= json.loads((folder / "run.json").read_text())["restartedFrom"] <= 7
+    same_results(whole, folder)
+
+
 @pytest.mark.parametrize("flags, words", [
     (["-E1", "2000"], ["E1 = 1000", "this run has E1 = 2000"]),
     (["-contactSolver", "bm"], ["contactSolver = 'pdas'"]),

@@ -15,6 +15,8 @@
 //                                               columns per solve
 //   addTransposedProduct(Y, z, y), subtractProduct(Y, lambda, u)   y += Yᵀz, u −= Ŷλ
 //   columnNonzeros(Y)                           Y's nonzeros (run.json factorColumnNonzeros1, 2)
+//   forgetColumns(Y)                            frees Y and Ŷ (K factorized again for another
+//                                               k: edp/lib/start.idp); Y names nothing after it
 // The plugin keeps Y by columns (an int row index and a double a nonzero; Ŷ only where D ≠ I,
 // CHOLMOD's simplicial LDLᵀ of small matrices): a step reads all of Y once and the columns of
 // Ŷ of the active nodes once, where FreeFEM's matrices would hold both with two indices a
@@ -296,17 +298,26 @@ static long factorColumns(Matrice_Creuse<double>* const& matrix, Matrice_Creuse<
   return static_cast<long>(condensedKept.size()) - 1;
 }
 
+static const Condensed& keptColumns(long Y, const char* who) {
+  if (Y < 0 || Y >= static_cast<long>(condensedKept.size()) || !condensedKept[Y])
+    ExecError(std::string(who) + ": Y is not a number factorColumns gave, or it was forgotten");
+  return *condensedKept[Y];
+}
+
 static const Condensed& condensedOf(long Y, long rows, long columns, const char* who) {
-  if (Y < 0 || Y >= static_cast<long>(condensedKept.size()))
-    ExecError(std::string(who) + ": Y is not a number factorColumns gave");
-  const Condensed& C = *condensedKept[Y];
+  const Condensed& C = keptColumns(Y, who);
   if (C.n != rows || C.m != columns) ExecError(std::string(who) + ": the vectors' sizes are not those of Y (n × m)");
   return C;
 }
 
 static long columnNonzeros(long const& Y) {
-  if (Y < 0 || Y >= static_cast<long>(condensedKept.size())) ExecError("columnNonzeros: Y is not a number factorColumns gave");
-  return static_cast<long>(condensedKept[Y]->Y.row.size());
+  return static_cast<long>(keptColumns(Y, "columnNonzeros").Y.row.size());
+}
+
+static long forgetColumns(long const& Y) {
+  keptColumns(Y, "forgetColumns");
+  condensedKept[Y].reset();
+  return 0;
 }
 
 // y += Yᵀ z: each column's entries make a dot product, summed in four partial sums (one sum
@@ -350,6 +361,7 @@ static void init() {
   Global.Add("addTransposedProduct", "(", new OneOperator3_<long, long, KN<double>*, KN<double>*>(addTransposedProduct));
   Global.Add("subtractProduct", "(", new OneOperator3_<long, long, KN<double>*, KN<double>*>(subtractProduct));
   Global.Add("columnNonzeros", "(", new OneOperator1_<long, long>(columnNonzeros));
+  Global.Add("forgetColumns", "(", new OneOperator1_<long, long>(forgetColumns));
   Global.Add("factorColumns", "(",
              new OneOperator4_<long, Matrice_Creuse<double>*, Matrice_Creuse<double>*, KNM<double>*, long>(factorColumns));
 }
