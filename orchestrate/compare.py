@@ -36,7 +36,11 @@ NAME = "compare"  # the command, as its folders' made-by.json records it
 
 QUANTITIES = ("errorV", "errorZeta", "errorBeta")
 NORMS = {"errorV": "normV", "errorZeta": "normZeta", "errorBeta": "normBeta"}
-SAME_TIME = 1e-6  # of the smaller time step: output times of two runs that are the same instant
+SAME_TIME = 1e-9  # relative: two output times that are one instant (edp/tools/errors.edp's rule)
+
+
+def same_instant(t: float, u: float) -> bool:
+    return abs(t - u) <= SAME_TIME * max(abs(t), abs(u))
 
 
 def state_times(result: Result) -> list[tuple[float, Path]]:
@@ -51,19 +55,20 @@ def state_times(result: Result) -> list[tuple[float, Path]]:
 
 def paired_states(a: Result, b: Result, scratch: Path) -> list[tuple[Path, Path, str]]:
     """(state of a, state of b, which run was interpolated: "A", "B" or "") at every time either
-    run saved its state within the interval both cover. Times within SAME_TIME of the smaller step
-    are one instant (output times are multiples of each run's k); at a time one run did not save,
-    its state is the linear interpolation in time of its two neighbours, written to `scratch`."""
+    run saved its state within the interval both cover. Times within SAME_TIME of each other are one
+    instant (output times are multiples of each run's k, to round-off), as errors.edp takes them; at a
+    time one run did not save, its state is the linear interpolation in time of its two neighbours,
+    written to `scratch`."""
     times = {"A": state_times(a), "B": state_times(b)}
     missing = [str(run.folder) for run, saved in ((a, times["A"]), (b, times["B"])) if not saved]
     if missing:
         refuse(a, b, f"{' and '.join(missing)} saved no state (state_NNNN.txt)")
-    tolerance = SAME_TIME * min(a.params["k"], b.params["k"])
-    start = max(saved[0][0] for saved in times.values()) - tolerance
-    end = min(saved[-1][0] for saved in times.values()) + tolerance
+    start = max(saved[0][0] for saved in times.values())
+    end = min(saved[-1][0] for saved in times.values())
     instants = []
     for t, _ in sorted(times["A"] + times["B"]):
-        if start <= t <= end and not (instants and t - instants[-1] <= tolerance):
+        inside = (start <= t or same_instant(t, start)) and (t <= end or same_instant(t, end))
+        if inside and not (instants and same_instant(t, instants[-1])):
             instants.append(t)
     if not instants:
         refuse(a, b, "the times at which they saved their states (output.times) do not overlap")
@@ -72,7 +77,7 @@ def paired_states(a: Result, b: Result, scratch: Path) -> list[tuple[Path, Path,
         files, interpolated = [], ""
         for side, saved in times.items():
             nearest = min(saved, key=lambda entry: abs(entry[0] - t))
-            if abs(nearest[0] - t) <= tolerance:
+            if same_instant(nearest[0], t):
                 files.append(nearest[1])
             else:
                 files.append(interpolated_state(saved, t, scratch / f"{side}_{j:04d}.txt"))

@@ -213,7 +213,7 @@ def glue_section(glue: list[dict]) -> list[str]:
         "elastic bound is far away) and the top's displacement held after t = 1, p_τ varied. Predicted: "
         "2/ρ_τ, kρ_τ = λmax(C K⁻¹ Cᵀ W) by power iteration with the scheme's own K (docs/model-choices.md, "
         "\"Explicit glue\"). The paper's scheme only: semi-implicit and bdf2 take the glue implicit, inside the "
-        "contact problem (docs/model.md §11(b)), and have no glue bound.", "p_τ", "predicted limit/ρ_τ", glue,
+        "contact problem (docs/model.md §11(b)), and have no glue bound.", "p_τ", "predicted 2/ρ_τ", glue,
         ".4g")
 
 
