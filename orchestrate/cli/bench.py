@@ -6,9 +6,9 @@ import argparse
 from pathlib import Path
 
 from orchestrate.cli.options import add_force_argument, at_least_two
-from orchestrate.studies.bench import NAME, TARGETS, bench, number
+from orchestrate.studies.bench import ADAPT_TARGETS, NAME, TARGETS, bench, number
 
-HELP = "run time against error on this machine, every scheme on uniform and graded meshes (results/bench)"
+HELP = "run time against error on this machine, every scheme on uniform and graded meshes, bdf2 on adapted ones (results/bench)"
 
 
 def add_arguments(parser) -> None:
@@ -24,13 +24,16 @@ def add_arguments(parser) -> None:
                         help="errors in %% to find the fastest run for: between the two levels that bracket each, "
                              "the coarsest mesh that reaches it is searched; a target no two levels bracket is not "
                              "(default 1,0.2)")
+    parser.add_argument("--adapt-targets", type=percentages, default=ADAPT_TARGETS, metavar="P1,P2,...",
+                        help="estimates in %% that `adapt` designs bdf2's adapted meshes for, from the uniform "
+                             "pilot (default 5,2,1,0.5)")
     parser.add_argument("--out", default="results/bench", help="a new folder for the table, report and plot")
     add_force_argument(parser, NAME)
 
 
 def command(options) -> int:
     bench(options.out, levels=options.levels, fraction=options.time_fraction, uniform_levels=options.uniform_levels,
-          targets=options.targets, force=options.force)
+          targets=options.targets, adapt_targets=options.adapt_targets, force=options.force)
     print((Path(options.out) / "README.md").read_text())
     return 0
 

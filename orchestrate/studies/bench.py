@@ -4,7 +4,10 @@ Variants: every time scheme (euler, the paper's; semi-implicit; bdf2) on each me
 (uniform: the paper's structured meshes, body 1 with n1 = 6·2^ℓ elements per side, body 2 with
 4/3 as many; graded: scenes/paper_graded.toml, graded toward the singular points, n1 = 6·2^ℓ and
 body 2 with 11/24 as many), the active-set contact solver throughout (Bermúdez–Moreno against it:
-tests/test_fast_paths.py).
+tests/test_fast_paths.py); and bdf2 on adapted meshes: `orchestrate adapt` (orchestrate/adapt.py)
+from the paper's uniform pilot (n = 24) at each of ADAPT_TARGETS, its last run timed as every
+other run (the whole loop's wall time beside it, adaptSeconds), at the N of a time error of
+fraction × the target.
 
 Steps per level, balanced (docs/model-choices.md, "Steps for a target time error"): each scheme's time
 error model comes from the pilots of time.N = "auto" (orchestrate/steps.py) on uniform level 0;
@@ -44,11 +47,13 @@ from __future__ import annotations
 import csv
 import json
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
 from matplotlib.ticker import FuncFormatter
 
+from orchestrate.adapt import adapt
 from orchestrate.compare import instant_distances
 from orchestrate.freefem import REPO, SolverError, run_script
 from orchestrate.manifest import facts
@@ -66,6 +71,8 @@ NAME = "bench"  # the command, as its folders' made-by.json records it
 
 SCHEMES = tuple(ORDER)
 FAMILIES = {"uniform": REPO / "scenes" / "paper.toml", "graded": REPO / "scenes" / "paper_graded.toml"}
+ADAPTED, ADAPT_TARGETS = "adapted", (0.05, 0.02, 0.01, 0.005)  # the family of meshes adapt designs; its estimates
+MARKERS = {"uniform": "o-", "graded": "s--", ADAPTED: "^-."}
 REFERENCE, CHECK = "reference", "reference check"
 MEASURE = 30  # sets of the unavoidable back-substitutions timed in each run, spread over steps 2 … N
 REPEATS, REPEAT_BELOW = 3, 20.0  # this machine's timings drift by ±20 %: short runs are repeated
@@ -265,6 +272,8 @@ def search_rows(family: str, levels: list[dict], targets, fraction: float, model
 
 def search_status(rows: list[dict], name: str, target: float) -> str:
     """How the search for `target` ended for a variant, for the report."""
+    if name.split(", ")[1] == ADAPTED:
+        return "none: its meshes are designed for targets of the estimate"
     label, step = search_label(target), N1_STEP[name.split(", ")[1]]
     levels = [row for row in rows if row["variant"] == name and isinstance(row["level"], int)]
     searched = [row for row in rows if row["variant"] == name and row["level"] == label]
@@ -276,6 +285,33 @@ def search_status(rows: list[dict], name: str, target: float) -> str:
     if fine["level"] == label and fine["n1"] - coarse["n1"] == step:
         return f"n1 = {fine['n1']} reaches it, {coarse['n1']} does not"
     return f"open after {len(searched)} runs: n1 = {coarse['n1']} above it, {fine['n1']} at or below"
+
+
+def adapted_rows(targets, fraction: float, model: dict, reference: Path, scratch: Path) -> list[dict]:
+    """bdf2 on the meshes `adapt` designs for each estimate target (from the uniform scene as it is),
+    the last run of each loop timed as every other run, at the N of a time error of fraction × the
+    target."""
+    rows = []
+    for goal in targets:
+        steps, estimated = steps_for(model, fraction * goal)
+        overrides = {"time.scheme": "bdf2", "time.N": steps}
+        loop_folder = scratch / f"bdf2-{ADAPTED}" / f"adapt-{goal:g}"
+        start = time.perf_counter()
+        loop = adapt(FAMILIES["uniform"], loop_folder, goal, overrides={**overrides, "output.images": False},
+                     progress=False)
+        spent = time.perf_counter() - start
+        last = loop[-1]["cycle"]
+        sizes = {f"body{body}.mesh.sizes": str(loop_folder / "sizes" / f"cycle{last}" / f"body{body}.pos")
+                 for body in (1, 2) if last > 0}
+        folder = scratch / f"bdf2-{ADAPTED}" / f"target-{goal:g}"
+        row = {"variant": variant_name("bdf2", ADAPTED), "scheme": "bdf2", "family": ADAPTED,
+               "level": f"target {100 * goal:g} %", "n1": "", "folder": folder, "timeTarget": fraction * goal,
+               "estimatedTimeError": estimated,
+               **stable_run(FAMILIES["uniform"], {**overrides, **sizes}, folder, scratch / "meshes"),
+               "adaptSeconds": spent, "adaptCycles": last}
+        row["errorToReference"] = final_distance(folder, reference)
+        rows.append(row)
+    return rows
 
 
 def family_rows(family: str, levels: int, fraction: float, models: dict, reference: Path, scratch: Path) -> list[dict]:
@@ -295,11 +331,12 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
 
 
 def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None,
-          targets=TARGETS, force: bool = False) -> list[dict]:
+          targets=TARGETS, adapt_targets=ADAPT_TARGETS, force: bool = False) -> list[dict]:
     """`levels` graded levels (the reference two finer) and `uniform_levels` uniform ones (default
     as many: uniform meshes need one more level for the same error); for each error of `targets`
-    the levels bracket, the search for the coarsest mesh that reaches it. `out`: a new folder, or
-    with `force` one an earlier bench wrote (outputs.py)."""
+    the levels bracket, the search for the coarsest mesh that reaches it; the adapted meshes of
+    each estimate of `adapt_targets`. `out`: a new folder, or with `force` one an earlier bench
+    wrote (outputs.py)."""
     counts = {"uniform": uniform_levels or levels, "graded": levels}
     out = Path(out).resolve()
     refuse_folder(out, NAME, force)  # now, not after the runs
@@ -312,6 +349,7 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_leve
             levels_run = family_rows(family, counts[family], fraction, models, reference["folder"], scratch)
             rows += levels_run + search_rows(family, levels_run, targets, fraction, models, reference["folder"],
                                              scratch)
+        rows += adapted_rows(adapt_targets, fraction, models["bdf2"], reference["folder"], scratch)
         check["errorToReference"] = final_distance(check["folder"], reference["folder"])
         for row in rows:
             if row["variant"] not in (REFERENCE, CHECK):
@@ -323,15 +361,20 @@ def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_leve
         solvers = solver_table(scratch / "solvers", load_result(finest).params["N"])
     rows = rows[2:] + rows[:2]
     flags = (f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g} "
-             f"--targets {','.join(f'{100 * target:g}' for target in targets)}")
+             f"--targets {','.join(f'{100 * target:g}' for target in targets)} "
+             f"--adapt-targets {','.join(f'{100 * target:g}' for target in adapt_targets)}")
     write(claim_folder(out, NAME, FILES, force), rows, solvers, models, flags, fraction, targets)
     return rows
 
 
 def finest_level(rows: list[dict], name: str) -> dict:
-    """A variant's row at its finest level (search runs aside)."""
-    return max((row for row in rows if row["variant"] == name and isinstance(row["level"], int)),
-               key=lambda row: row["level"])
+    """A variant's row at its finest level (search runs aside); of the adapted meshes, the most
+    accurate."""
+    own = [row for row in rows if row["variant"] == name]
+    levels = [row for row in own if isinstance(row["level"], int)]
+    if levels:
+        return max(levels, key=lambda row: row["level"])
+    return min(own, key=lambda row: row["errorToReference"])
 
 
 def curve(rows: list[dict], name: str, key: str = "errorToReference") -> list[tuple[float, float]]:
@@ -371,7 +414,8 @@ FILES = ("bench.csv", "README.md", "workprecision.png")
 COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
            "startup", "meshing", "setup", "columns", "loop", "output", "firstStep", "overheadRatio", "laterOverheadRatio",
            "laterOverheadLow", "laterOverheadHigh",
-           "setupMemoryMB", "peakMemoryMB", "contactIters", "normV", "errorToReference", "errorToCheck"]
+           "setupMemoryMB", "peakMemoryMB", "contactIters", "normV", "errorToReference", "errorToCheck", "adaptSeconds",
+           "adaptCycles"]
 
 
 def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags: str, fraction: float,
@@ -394,8 +438,11 @@ def plot(target: Path, rows: list[dict], targets) -> None:
     for name in names:
         scheme, family = name.split(", ")
         errors, walls = zip(*curve(rows, name))
-        left.loglog(np.array(errors) * 100, walls, ("o-" if family == "uniform" else "s--"), color=colours[scheme],
-                    label=name)
+        left.loglog(np.array(errors) * 100, walls, MARKERS[family], color=colours[scheme], label=name)
+        if family == ADAPTED:  # the whole loop that designed them: pilot, estimates, meshing, every cycle
+            loops = sorted((row["errorToReference"], row["adaptSeconds"]) for row in rows if row["variant"] == name)
+            left.loglog([100 * e for e, _ in loops], [w for _, w in loops], "^:", color=colours[scheme], alpha=0.5,
+                        label=f"{name}: the whole adapt loop")
     for error in targets:
         left.axvline(100 * error, color="0.6", linestyle=":", linewidth=1)
         left.annotate(f"target {100 * error:g} %", (100 * error, 0), xycoords=("data", "axes fraction"),
@@ -412,12 +459,16 @@ def plot(target: Path, rows: list[dict], targets) -> None:
         values = np.array([row[part] for row in finest]).clip(min=0)
         right.barh(range(len(finest)), values, left=bottom, label=part)
         bottom += values
-    right.set_yticks(range(len(finest)), [f"{row['variant']}\nlevel {row['level']}, N = {row['N']}" for row in finest],
+    right.set_yticks(range(len(finest)), [f"{row['variant']}\n{level_label(row)}, N = {row['N']}" for row in finest],
                      fontsize=8)
     right.invert_yaxis()
     right.set_xlabel("wall time of the finest level (s)")
     right.legend(fontsize=8)
     save(figure, target)
+
+
+def level_label(row: dict) -> str:
+    return f"level {row['level']}" if isinstance(row["level"], int) else row["level"]
 
 
 def number(text: str) -> float:
