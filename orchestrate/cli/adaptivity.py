@@ -1,7 +1,7 @@
 """The command line of `orchestrate.studies.adaptivity`: its arguments and what the command does with them."""
 from __future__ import annotations
 
-from orchestrate.cli.options import add_study_out, show_report
+from orchestrate.cli.options import add_study_out, run_study
 from orchestrate.studies.adaptivity import NAME, adaptivity
 
 HELP = "adapted meshes on the paper's scene: the estimate against the true error, per cycle and target"
@@ -12,7 +12,4 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    import sys
-
-    adaptivity(options.out, progress=sys.stderr.isatty(), force=options.force)
-    return show_report(options.out)
+    return run_study(adaptivity, options)

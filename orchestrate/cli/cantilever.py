@@ -1,7 +1,7 @@
 """The command line of `orchestrate.studies.cantilever`: its arguments and what the command does with them."""
 from __future__ import annotations
 
-from orchestrate.cli.options import add_study_out, show_report
+from orchestrate.cli.options import add_study_out, run_study
 from orchestrate.studies.cantilever import NAME, cantilever
 
 HELP = "a cantilever peel: the force on the propagation branch and the front's start against beam theory"
@@ -12,7 +12,4 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
-    import sys
-
-    cantilever(options.out, progress=sys.stderr.isatty(), force=options.force)
-    return show_report(options.out)
+    return run_study(cantilever, options)

@@ -1,9 +1,7 @@
 """The command line of `orchestrate.studies.modeone`: its arguments and what the command does with them."""
 from __future__ import annotations
 
-from pathlib import Path
-
-from orchestrate.cli.options import add_force_argument
+from orchestrate.cli.options import add_study_out, run_study
 from orchestrate.studies.modeone import NAME, STEPS, mode_one
 
 HELP = "one adhesive interface opened in mode I: the work of separation against G_c"
@@ -24,13 +22,8 @@ def steps(text: str) -> tuple[int, ...]:
 def add_arguments(parser) -> None:
     parser.add_argument("--steps", type=steps, default=STEPS, help="the ladder of N, comma-separated "
                                                                    f"(default {','.join(map(str, STEPS))})")
-    parser.add_argument("--out", default="results/mode-one", help="output folder (default results/mode-one)")
-    add_force_argument(parser, f"study {NAME}")
+    add_study_out(parser, NAME)
 
 
 def command(options) -> int:
-    import sys
-
-    mode_one(options.out, options.steps, progress=sys.stderr.isatty(), force=options.force)
-    print((Path(options.out) / "README.md").read_text())
-    return 0
+    return run_study(mode_one, options, options.steps)

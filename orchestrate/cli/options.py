@@ -60,9 +60,12 @@ def add_study_out(parser, name: str) -> None:
     add_force_argument(parser, f"study {name}")
 
 
-def show_report(out: str) -> int:
-    """A study's README.md, printed once it is written."""
+def run_study(study, options, *arguments) -> int:
+    """`study(--out, *arguments)` with --force and a progress bar where one can be seen, then its
+    README.md printed."""
+    import sys
     from pathlib import Path
 
-    print((Path(out) / "README.md").read_text())
+    study(options.out, *arguments, progress=sys.stderr.isatty(), force=options.force)
+    print((Path(options.out) / "README.md").read_text())
     return 0
