@@ -25,7 +25,7 @@ import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestrate.identity import solver_identity
+from orchestrate.identity import solver_identity, stale_plugins
 
 REPO = Path(__file__).resolve().parent.parent
 MAIN = REPO / "edp" / "main.edp"
@@ -99,15 +99,13 @@ def freefem_binary() -> str:
 
 @functools.cache
 def require_own_plugins(repo: Path) -> None:
-    """The project's plugins are built from their sources for this FreeFem++ (bin/plugins check), once
-    a process: a missing one would stop FreeFEM with a bare load error, a stale one run old code."""
-    try:
-        done = subprocess.run(["bash", repo / "bin" / "plugins", "check"], capture_output=True, text=True)
-    except OSError as error:
-        raise FileNotFoundError(f"bin/plugins could not check the FreeFEM plugins ({error}): run `make setup`") from None
-    if done.returncode != 0:
-        raise FileNotFoundError(done.stderr.strip().removeprefix("ERROR: ")
-                                or f"bin/plugins check failed (exit {done.returncode}): run `make setup`")
+    """The project's plugins are built from their sources for this FreeFem++ (their stamps, as
+    bin/plugins check reads them), once a process: a missing one would stop FreeFEM with a bare
+    load error, a stale one run old code."""
+    stale = stale_plugins(repo / "edp" / "plugins")
+    if stale:
+        raise FileNotFoundError(f"the FreeFEM plugin {stale[0]} is missing, or not built from its source for this "
+                                "FreeFem++: run `make setup`")
 
 
 def on_load_path(folder: str | Path) -> bool:
@@ -195,9 +193,9 @@ def stop_group(process: subprocess.Popen) -> None:
 
 
 def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str, str] | None = None,
-               append: bool = False) -> Completed:
+               append: bool = False, meanwhile=None) -> Completed:
     """Run a FreeFEM script in folder `cwd` with its output (stdout and stderr) written to `log`
-    (after what it holds, with `append`).
+    (after what it holds, with `append`); meanwhile(), when given, is called once it started.
     An exception here (KeyboardInterrupt included) ends its process group. Signals Python ignores
     (SIGXFSZ among them) are restored for the child, so a file-size limit stops FreeFem++ instead
     of letting its writes fail silently."""
@@ -206,6 +204,8 @@ def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str
                                    env=freefem_env(), text=True, stdout=sink, stderr=subprocess.STDOUT,
                                    start_new_session=True)
         try:
+            if meanwhile:
+                meanwhile()
             process.wait()
         except BaseException:
             stop_group(process)

@@ -7,21 +7,38 @@ library may read at run time), and the FreeFem++ executable. A new .idp or
 plugin enters it with no edit here. Part of a run's identity (runner.inputs_of); bin/ff passes it
 to the driver for runs started by hand, so a checkpoint never continues under other code.
 
-Standard library only: bin/ff runs this file with the system's python3 (`python3 identity.py
-[main.edp]` prints the identity).
+Also the stamp of a project plugin's build (`plugin_stamp`, `stale_plugins`): bin/plugins writes
+it beside each .so it compiles and refuses a run whose plugin was built from another source or
+for another FreeFem++; orchestrate checks the same stamps in-process.
+
+A file's SHA-256 is kept in results/.cache/digests/ against its stamp (size, times, inode),
+as git's index keeps one (`StampedFacts`): a command does not read FreeFem++'s 16 MB again on
+every run. A file changed within the last seconds is hashed afresh by each process (a change in
+the same clock tick would keep its stamp).
+
+Standard library only: bin/ff and bin/plugins run this file with the system's python3
+(`python3 identity.py [main.edp]` prints the identity, `--plugin-stamp SOURCE` a plugin's stamp,
+`--stale-plugins` the .so files that need building).
 """
 from __future__ import annotations
 
-import functools
 import hashlib
+import json
 import os
 import re
 import shutil
 import sys
+import tempfile
+import threading
+import time
 from pathlib import Path
 
 EDP = Path(__file__).resolve().parent.parent / "edp"
+CACHE = EDP.parent / "results" / ".cache"
+SETTLED = 2.0  # seconds since a file's last change before a fact of it is kept
 FREEFEM_PLUGINS = Path("/usr/lib/freefem++")  # where Debian's FreeFem++ keeps its own plugins
+# Its CHOLMOD objects are read through them (factorsplit.cpp): a plugin is built for their version.
+CHOLMOD_HEADERS = Path("/usr/include/suitesparse/cholmod_core.h")
 # Beside the included files but never read by the driver: other scripts, and lib/parameters.toml,
 # the source the generated includes are made from (its meanings are prose: rewording one is no
 # other program).
@@ -64,9 +81,61 @@ def plugin_files(edp: Path, name: str) -> list[Path]:
     return [own] if own.is_file() else []
 
 
-@functools.cache
-def file_digest(path: Path, size: int, mtime: int, inode: int, changed: int) -> str:
-    """A file's SHA-256, computed once per content stamp (the executable is 16 MB)."""
+class StampedFacts:
+    """What `compute` made of a file, kept between processes against the file's stamp (device,
+    inode, size, modification and change times: a change to the file changes one of them), as
+    git's index keeps a file's hash: one small JSON file per file in `folder`, named by the
+    digest of its path, written atomically. A fact of a file changed less than SETTLED seconds
+    before is kept by this process only: another's change within the same clock tick would keep
+    its stamp. An unreadable or unwritable store only costs the computing; compute's exceptions
+    pass through, and nothing is kept of a file it refused."""
+
+    def __init__(self, folder: Path, compute):
+        self.folder, self.compute, self.memory, self.lock = folder, compute, {}, threading.Lock()
+
+    def forget(self) -> None:
+        """Read the stored facts anew at the next use, as a fresh process would."""
+        with self.lock:
+            self.memory.clear()
+
+    def of(self, path: Path):
+        status = path.stat()
+        stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
+        name = str(path)
+        with self.lock:
+            entry = self.memory.get(name)
+        entry = entry or self.stored(name)
+        if entry and entry["stamp"] == stamp:
+            return entry["fact"]
+        entry = {"path": name, "stamp": stamp, "fact": self.compute(path)}
+        with self.lock:
+            self.memory[name] = entry
+        if time.time_ns() - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
+            self.store(entry)
+        return entry["fact"]
+
+    def entry_file(self, name: str) -> Path:
+        return self.folder / f"{hashlib.sha256(name.encode('utf-8', 'surrogateescape')).hexdigest()[:32]}.json"
+
+    def stored(self, name: str) -> dict | None:
+        try:
+            entry = json.loads(self.entry_file(name).read_text())
+        except (OSError, ValueError):
+            return None
+        return entry if isinstance(entry, dict) and entry.get("path") == name and "fact" in entry else None
+
+    def store(self, entry: dict) -> None:
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            handle, partial = tempfile.mkstemp(dir=self.folder, suffix=".partial")
+            with os.fdopen(handle, "w") as file:
+                json.dump(entry, file)
+            os.replace(partial, self.entry_file(entry["path"]))
+        except OSError:
+            pass
+
+
+def sha256_of(path: Path) -> str:
     sha = hashlib.sha256()
     with open(path, "rb") as handle:
         for block in iter(lambda: handle.read(1 << 20), b""):
@@ -74,12 +143,16 @@ def file_digest(path: Path, size: int, mtime: int, inode: int, changed: int) -> 
     return sha.hexdigest()
 
 
-def stamped_digest(path: Path) -> str:
+DIGESTS = StampedFacts(CACHE / "digests", sha256_of)
+
+
+def digest_of(path: Path) -> str:
     try:
-        status = path.stat()
+        return DIGESTS.of(path)
     except FileNotFoundError:
-        return "missing"  # a plugin not built yet: bin/plugins check refuses the run
-    return file_digest(path, status.st_size, status.st_mtime_ns, status.st_ino, status.st_ctime_ns)
+        return "missing"  # a plugin not built yet: its check refuses the run
+
+
 
 
 def solver_identity(main: Path = EDP / "main.edp") -> str:
@@ -91,9 +164,48 @@ def solver_identity(main: Path = EDP / "main.edp") -> str:
     files = program_files(main) + ([Path(os.path.realpath(freefem))] if freefem else [])
     for path in files:
         label = path.relative_to(root).as_posix() if path.is_relative_to(root) else str(path)
-        sha.update(f"{label}\0{stamped_digest(path)}\n".encode())
+        sha.update(f"{label}\0{digest_of(path)}\n".encode())
     return sha.hexdigest()
 
 
+def plugin_stamp(source: Path) -> str:
+    """What a plugin's .so is built for: its source's SHA-256, and FreeFem++'s and the CHOLMOD
+    headers' size and whole-second mtime (dpkg keeps a package's file times, so an upgrade
+    changes them; a chmod, a reinstall of the same package or an unpacked image do not)."""
+    def size_and_time(path: Path) -> str:
+        status = path.stat()
+        return f"{status.st_size} {status.st_mtime_ns // 10**9}"
+
+    freefem = shutil.which("FreeFem++")
+    if freefem is None:
+        raise FileNotFoundError("FreeFem++ is not installed: run `make setup`")
+    headers = size_and_time(CHOLMOD_HEADERS) if CHOLMOD_HEADERS.is_file() else ""
+    stamp = f"{digest_of(source.resolve())} {size_and_time(Path(os.path.realpath(freefem)))} {headers}"
+    return stamp
+
+
+def stale_plugins(folder: Path = EDP / "plugins") -> list[Path]:
+    """The .so files of `folder` that are missing or not built from their source as it is now,
+    for the FreeFem++ and headers installed now (by the stamp beside each, <name>.built-for)."""
+    def current(source: Path) -> bool:
+        built, stamp = source.with_suffix(".so"), source.with_suffix(".built-for")
+        try:
+            return built.is_file() and stamp.read_text().rstrip("\n") == plugin_stamp(source)
+        except (OSError, UnicodeDecodeError):
+            return False
+
+    return [source.with_suffix(".so") for source in sorted(folder.glob("*.cpp")) if not current(source)]
+
+
+def main(arguments: list[str]) -> int:
+    if arguments[:1] == ["--plugin-stamp"] and len(arguments) == 2:
+        print(plugin_stamp(Path(arguments[1])))
+    elif arguments[:1] == ["--stale-plugins"] and len(arguments) <= 2:
+        print(*stale_plugins(*map(Path, arguments[1:])), sep="\n")
+    else:
+        print(solver_identity(Path(arguments[0]) if arguments else EDP / "main.edp"))
+    return 0
+
+
 if __name__ == "__main__":
-    print(solver_identity(Path(sys.argv[1]) if len(sys.argv) > 1 else EDP / "main.edp"))
+    raise SystemExit(main(sys.argv[1:]))

@@ -20,8 +20,10 @@ import os
 import re
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:  # the readers import numpy: the runner imports this module before FreeFem++ starts
+    import numpy as np
 
 MANIFEST = "manifest.json"
 FACTS = "run.json"
@@ -42,6 +44,8 @@ STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
 
 def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
     """A state_NNNN.txt file (edp/lib/output.idp): t, then each array as its length and values."""
+    import numpy as np
+
     tokens = Path(path).read_text().split()
     state: dict[str, np.ndarray | float] = {"t": float(tokens[0])}
     position = 1
@@ -128,6 +132,8 @@ def _check_digests(folder: Path, files: list, digests) -> None:
 
 
 def _check_history(path: Path, steps: int) -> None:
+    import numpy as np
+
     lines = path.read_bytes().split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()
@@ -140,9 +146,9 @@ def _check_history(path: Path, steps: int) -> None:
         raise IncompleteRun(f"{path}: a value that is not a number (the file is damaged)") from None
 
 
-# The VTK types the driver writes, by their size in bytes.
-VTK_TYPES = {"Float32": np.float32, "Float64": np.float64, "Int32": np.int32, "Int64": np.int64, "UInt8": np.uint8,
-             "UInt32": np.uint32, "UInt64": np.uint64, "Int8": np.int8}
+# The VTK types the driver writes, as numpy's little-endian types.
+VTK_TYPES = {"Float32": "<f4", "Float64": "<f8", "Int32": "<i4", "Int64": "<i8", "UInt8": "u1", "UInt32": "<u4",
+             "UInt64": "<u8", "Int8": "i1"}
 
 
 VTK_TRIANGLE = 5  # VTK's cell type of a 3-node triangle
@@ -155,6 +161,8 @@ def _check_vtu(path: Path, run: dict) -> None:
     as the values; ascii: the values counted), the cells' connectivity as long as their last
     offset; a body's point and triangle counts those of run.json and u, ζ among its point data; the
     contact line's points the trace's nodes."""
+    import numpy as np
+
     try:
         root = ElementTree.parse(path).getroot()
         if root.get("byte_order") != "LittleEndian":
@@ -192,6 +200,8 @@ def _check_vtu(path: Path, run: dict) -> None:
 
 def _vtu_values(array) -> np.ndarray:
     """The values of one DataArray of a .vtu (little-endian, as the driver writes), checked whole."""
+    import numpy as np
+
     kind = VTK_TYPES[array.get("type")]
     text = (array.text or "").strip()
     if array.get("format") == "ascii":
@@ -201,7 +211,7 @@ def _vtu_values(array) -> np.ndarray:
     raw = base64.b64decode(text, validate=True)
     if len(raw) < 4 or int.from_bytes(raw[:4], "little") != len(raw) - 4 or (len(raw) - 4) % np.dtype(kind).itemsize:
         raise ValueError("a binary DataArray shorter or longer than its header says")
-    return np.frombuffer(raw[4:], dtype=np.dtype(kind).newbyteorder("<"))
+    return np.frombuffer(raw[4:], dtype=kind)
 
 
 def _check_state(path: Path, run: dict) -> None:
@@ -235,16 +245,18 @@ def digest(path: Path) -> str:
     return sha.hexdigest()
 
 
-def write_manifest(folder: Path, inputs: dict) -> None:
+def write_manifest(folder: Path, inputs: dict, verified: dict[str, str] | None = None) -> None:
     """Sizes and hashes of every file in the folder but the images (which `render` makes anew from
     the data), and the inputs, written last: a folder with a manifest was complete when it was
-    written. A file by a name no run writes is refused, not listed."""
+    written. A file by a name no run writes is refused, not listed. `verified`: SHA-256 of files
+    this process has just checked against their content (check_files), not read again."""
     names = sorted(path.name for path in Path(folder).iterdir() if path.name != MANIFEST and not IMAGE.fullmatch(path.name))
     stray = [name for name in names if not is_run_file(name) or not regular_file(Path(folder) / name)]
     if stray:
         raise IncompleteRun(f"{folder}: holds {', '.join(stray)}, which no run writes: a manifest lists a run's files only")
-    entries = {name: {"bytes": (Path(folder) / name).stat().st_size, "sha256": digest(Path(folder) / name)}
-               for name in names}
+    verified = verified or {}
+    entries = {name: {"bytes": (Path(folder) / name).stat().st_size,
+                      "sha256": verified.get(name) or digest(Path(folder) / name)} for name in names}
     text = json.dumps({"inputs": inputs, "files": entries}, indent=1) + "\n"
     partial = Path(folder) / (MANIFEST + ".partial")
     with open(partial, "w") as handle:

@@ -13,8 +13,8 @@ run by hand mesh the paper's scene identically.
 
 gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
 .msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
-cache and again before it is used (once per process while the file is unchanged); a bad cache entry
-is rebuilt. Where a triangle is below gmshload's area limit the driver gets the mesh in FreeFEM's
+cache and again before it is used (once while the file is unchanged: what it holds is kept against
+the file's stamp, `WHOLE`); a bad cache entry is rebuilt. Where a triangle is below gmshload's area limit the driver gets the mesh in FreeFEM's
 own format, made once per cache entry and kept beside it.
 """
 from __future__ import annotations
@@ -31,13 +31,13 @@ import sys
 import threading
 import unicodedata
 from dataclasses import dataclass, field
+from importlib import metadata
 from pathlib import Path
-
-import numpy as np
 
 from orchestrate.freefem import REPO, dying_with_parent, stop_group
 from orchestrate.geo import PROJECT_MESHES, GeoError, GeoFile, copy_name, read_sources, write_copies
 from orchestrate.gmsh_mesher import NOT_P1_TRIANGLES, TOO_MANY_NODES, landlock_abi
+from orchestrate.identity import StampedFacts
 
 CACHE = REPO / "results" / ".cache" / "meshes"
 BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
@@ -97,159 +97,68 @@ def geo_constants(source: Path) -> list[str]:
 class MeshInfo:
     """What a whole gmsh 2.2 file holds: node and triangle counts, the number of boundary
     segments of each physical line tag (the FreeFEM labels), the smallest triangle area, each
-    tag's segments (their end points, k × 2 × 2) and, for a tag with a node in no triangle, where."""
+    tag's segments (their end points, ((x1, y1), (x2, y2)) each) and, for a tag with a node in no
+    triangle, where."""
     nodes: int
     triangles: int
     segments: dict[int, int]
     smallest_area: float = math.inf
-    curves: dict[int, np.ndarray] = field(default_factory=dict)
+    curves: dict[int, list] = field(default_factory=dict)
     stray: dict[int, tuple[float, float]] = field(default_factory=dict)
 
+    @classmethod
+    def from_record(cls, record: dict) -> MeshInfo:
+        def by_tag(values: dict) -> dict:
+            return {int(tag): value for tag, value in values.items()}
 
-_whole: dict[tuple, MeshInfo] = {}  # files read whole, by (device, inode, size, modification time)
+        return cls(record["nodes"], record["triangles"], by_tag(record["segments"]), record["smallestArea"],
+                   by_tag(record["curves"]), {tag: tuple(point) for tag, point in by_tag(record["stray"]).items()})
+
+
+def msh():
+    """orchestrate/msh.py, which parses with numpy: a run whose meshes were all read before never
+    loads it (nor numpy)."""
+    from orchestrate import msh
+
+    return msh
+
+
+def parse_msh(path: Path) -> MeshInfo:
+    """The file parsed, whatever was read before."""
+    return MeshInfo.from_record(parsed(path))
+
+
+def parsed(path: Path) -> dict:
+    """The file parsed by orchestrate/msh.py: a MeshInfo's record."""
+    module = msh()
+    try:
+        return module.parse_msh(path.read_bytes())
+    except OSError as error:
+        raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
+    except module.NotWhole as fault:
+        raise MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {fault} "
+                        "(cut short by a full disk or a file-size limit? mesh it again)") from None
+
+
+# Files read whole, kept against their stamps across processes (a rename keeps the stamp): each
+# mesh is parsed once, not once to trust it and once to use it, nor again by the next run.
+WHOLE = StampedFacts(REPO / "results" / ".cache" / "meshes-read", parsed)
 
 
 def read_msh(path: Path) -> MeshInfo:
     """Read a gmsh 2.2 ASCII file back whole: every section closed, as many node and element lines
     as their headers say, finite coordinates. Raises MeshError naming the file and the fault. A file
-    read whole before and unchanged since (the same file, size and modification time; a rename
-    keeps them) is not parsed again: each mesh is parsed once, not once to trust it and once to use it."""
+    read whole before and unchanged since is not parsed again (WHOLE)."""
     try:
-        stat = path.stat()
+        info = MeshInfo.from_record(WHOLE.of(path.resolve()))
     except OSError as error:
         raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
-    key = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
-    if key not in _whole:
-        _whole[key] = parse_msh(path)
-    return _whole[key]
+    return info
 
 
 def forget_whole_files() -> None:
     """Read every mesh file anew from now on, as a fresh process would (the benchmark times runs so)."""
-    _whole.clear()
-
-
-def parse_msh(path: Path) -> MeshInfo:
-    """The sections are parsed whole by numpy (a line at a time, a mesh of 10⁵ triangles took 0.3 s)."""
-    def fault(what: str) -> MeshError:
-        return MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {what} "
-                         "(cut short by a full disk or a file-size limit? mesh it again)")
-
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
-    head = data[:256].split(b"\n", 2)
-    if len(head) < 2 or head[0].strip() != b"$MeshFormat" or not head[1].startswith(b"2.2 "):
-        raise fault("it does not start with $MeshFormat 2.2")
-    at = {}
-    for section in (b"$Nodes", b"$EndNodes", b"$Elements", b"$EndElements"):
-        at[section] = section_line(data, section)
-        if at[section] is None:
-            raise fault(f"no {section.decode()} line")
-    nodes, node_block = counted_block(data, at[b"$Nodes"], at[b"$EndNodes"], fault)
-    elements, element_block = counted_block(data, at[b"$Elements"], at[b"$EndElements"], fault)
-    node_lines, element_lines = node_block.count(b"\n"), element_block.count(b"\n")
-    if node_lines != nodes or element_lines != elements:
-        raise fault(f"{node_lines} of {nodes} nodes and {element_lines} of {elements} elements")
-    try:
-        coordinates = np.fromstring(node_block, dtype=float, sep=" ") if nodes else np.zeros(0)
-    except ValueError:
-        raise fault("a node line that is not numbers") from None
-    if coordinates.size != 4 * nodes or not np.isfinite(coordinates).all():
-        raise fault("a node line without 3 finite coordinates")
-    fields, start, counts = element_fields(element_block, elements, fault)
-    kind = fields[start + 1]
-    line_tags = fields[start[kind == 1] + 3]
-    tags, per_tag = np.unique(line_tags, return_counts=True)
-    table = coordinates.reshape(nodes, 4)
-    where = rows_of(table[:, 0], corner_nodes(fields, start, counts, kind == 2, 3), fault)
-    a, b, c = (table[where[:, j], 1:3] for j in range(3))
-    areas = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    ends = rows_of(table[:, 0], corner_nodes(fields, start, counts, kind == 1, 2), fault)
-    in_triangle = np.zeros(nodes, dtype=bool)
-    in_triangle[where.ravel()] = True
-    curves, stray = {}, {}
-    for tag in tags.tolist():
-        mine = ends[line_tags == tag]
-        curves[tag] = table[mine, 1:3]
-        loose = mine[~in_triangle[mine]]
-        if loose.size:
-            stray[tag] = tuple(table[loose[0], 1:3].tolist())
-    return MeshInfo(nodes, len(where), dict(zip(tags.tolist(), per_tag.tolist())),
-                    float(areas.min()) if len(where) else math.inf, curves, stray)
-
-
-def corner_nodes(fields: np.ndarray, start: np.ndarray, counts: np.ndarray, chosen: np.ndarray, corners: int) -> np.ndarray:
-    """The node numbers of the chosen elements (each line's last `corners` fields), one row each."""
-    end = (start + counts)[chosen]
-    return np.stack([fields[end - corners + c] for c in range(corners)], axis=1).reshape(-1, corners)
-
-
-def element_fields(block: bytes, elements: int, fault) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every field of the $Elements lines as one integer array, and each line's first field and
-    field count in it."""
-    try:
-        fields = np.fromstring(block, dtype=np.int64, sep=" ") if elements else np.zeros(0, dtype=np.int64)
-    except ValueError:
-        raise fault("an element line that is not integers") from None
-    counts = fields_per_line(block)
-    if counts.size != elements or (counts < 4).any():
-        raise fault("an element line cut short")
-    if fields.size != counts.sum():  # numpy read a lone sign with the next number, or stopped early
-        raise fault("an element line that is not integers")
-    return fields, (np.cumsum(counts) - counts).astype(np.int64), counts
-
-
-def rows_of(numbers: np.ndarray, wanted: np.ndarray, fault) -> np.ndarray:
-    """The rows of the $Nodes table (node numbers `numbers`) that hold the node numbers `wanted`."""
-    if not wanted.size:
-        return wanted
-    missing = fault("a triangle whose nodes are not numbers of the $Nodes section")
-    if not numbers.size:
-        raise missing
-    order = np.argsort(numbers)
-    rows = order[np.minimum(np.searchsorted(numbers[order], wanted), numbers.size - 1)]
-    if (numbers[rows] != wanted).any():
-        raise missing
-    return rows
-
-
-def section_line(data: bytes, name: bytes) -> tuple[int, int] | None:
-    """Where the first line that holds only name (and blanks) starts and ends (its newline)."""
-    at = data.find(b"\n" + name)
-    while at >= 0:
-        end = data.find(b"\n", at + 1)
-        end = len(data) if end < 0 else end
-        if not data[at + 1 + len(name): end].strip():
-            return at + 1, end
-        at = data.find(b"\n" + name, at + 1)
-    return None
-
-
-def counted_block(data: bytes, opening: tuple[int, int], closing: tuple[int, int], fault) -> tuple[int, bytes]:
-    """A section's count (the line after its opening line) and the lines from there to its closing line."""
-    count_end = data.find(b"\n", opening[1] + 1)
-    if count_end < 0 or closing[0] <= count_end:
-        raise fault("a section closed before its lines")
-    try:
-        count = int(data[opening[1] + 1: count_end])
-    except ValueError:
-        raise fault("a section count is not a number") from None
-    return count, data[count_end + 1: closing[0]]
-
-
-def fields_per_line(block: bytes) -> np.ndarray:
-    """How many whitespace-separated fields each line of block (every line ended by a newline) holds."""
-    text = np.frombuffer(block, dtype=np.uint8)
-    if not text.size:
-        return np.zeros(0, dtype=np.int64)
-    blank = text <= 32
-    starts = np.flatnonzero(blank[:-1] & ~blank[1:]) + 1
-    if not blank[0]:
-        starts = np.concatenate(([0], starts))
-    before = np.searchsorted(starts, np.flatnonzero(text == 10))
-    return np.diff(np.concatenate(([0], before)))
+    WHOLE.forget()
 
 
 # FreeFEM's gmshload stops ("bug : mes < 1e-8 !", exit 1) at a triangle of smaller area in an ASCII
@@ -263,27 +172,7 @@ def write_freefem(source: Path, target: Path) -> None:
     the triangles, then the boundary edges, by 1-based vertex numbers, with their physical tags),
     the mesh gmshload would make: its vertices in their order with label 1 and the doubles an
     ASCII reader parses (written back exactly by repr), the triangles and edges in their order."""
-    write_atomically(target, freefem_text(source.read_bytes()))
-
-
-def freefem_text(data: bytes) -> str:
-    """What write_freefem writes, from the bytes of a gmsh 2.2 ASCII file."""
-    lines = data.split(b"\n")
-    position = {line.strip(): index for index, line in enumerate(lines) if line.startswith(b"$")}
-    table = np.array(b" ".join(lines[position[b"$Nodes"] + 2: position[b"$EndNodes"]]).split(), dtype=float)
-    table = table.reshape(-1, 4)
-    number = {int(tag): index + 1 for index, tag in enumerate(table[:, 0])}
-    triangles, edges = [], []
-    for line in lines[position[b"$Elements"] + 2: position[b"$EndElements"]]:
-        fields = [int(field) for field in line.split()]
-        label, corners = fields[3], " ".join(str(number[v]) for v in fields[3 + fields[2]:])
-        if fields[1] == 2:
-            triangles.append(f"{corners} {label}")
-        elif fields[1] == 1:
-            edges.append(f"{corners} {label}")
-    text = [f"{len(table)} {len(triangles)} {len(edges)}", *(f"{x!r} {y!r} 1" for x, y in table[:, 1:3].tolist()),
-            *triangles, *edges]
-    return "\n".join(text) + "\n"
+    write_atomically(target, msh().freefem_text(source.read_bytes()))
 
 
 def write_atomically(target: Path, text: str) -> None:
@@ -321,7 +210,7 @@ def freefem_twin(path: Path) -> Path:
     digest.update(Path(__file__).read_bytes())
     twin = path.with_name(f"{path.stem}.{digest.hexdigest()[:16]}.mesh")
     if not whole_freefem_mesh(twin):
-        write_atomically(twin, freefem_text(data))
+        write_atomically(twin, msh().freefem_text(data))
     return twin
 
 
@@ -377,15 +266,12 @@ def checked_sizes(path: Path, text: bytes, key: str) -> bytes:
         where = f" (line {wrong})" if wrong is not None else ""
         raise MeshError(f"{key}: {path} is not a gmsh view of element sizes as orchestrate adapt writes one{where}: "
                         f'{SIZES_OPEN.decode()} ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){{h1,h2,h3}}; ... {SIZES_CLOSE.decode()}')
-    sizes = np.array(re.findall(NUMBER, b" ".join(lines[1:-1])), dtype=float).reshape(-1, 12)[:, 9:]
-    if not (np.isfinite(sizes).all() and (sizes > 0).all()):
+    if not msh().positive_sizes(re.findall(NUMBER, b" ".join(lines[1:-1]))):
         raise MeshError(f"{key}: {path} holds a size that is not a positive number")
     return text
 
 
 def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int, sizes: bytes | None = None) -> str:
-    import gmsh
-
     digest = hashlib.sha256()
     for text in [file.text.encode("utf-8", "surrogateescape") for file in files]:
         digest.update(text)
@@ -393,7 +279,7 @@ def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int, si
         digest.update(b"sizes:" + hashlib.sha256(sizes).digest())
     digest.update(Path(__file__).with_name("gmsh_mesher.py").read_bytes())
     digest.update(json.dumps([sorted(numbers.items()), refine]).encode())
-    digest.update(gmsh.__version__.encode())
+    digest.update(metadata.version("gmsh").encode())  # gmsh's own __version__, without loading it
     return digest.hexdigest()[:24]
 
 

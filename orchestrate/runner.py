@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import ctypes
 import fcntl
+import functools
 import hashlib
+import importlib
 import json
 import os
 import platform
@@ -34,18 +36,19 @@ from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from orchestrate import mesh as meshing
 from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
 from orchestrate.identity import solver_identity
-from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, facts, is_run_entry, write_manifest
+from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, is_run_entry, write_manifest
 from orchestrate.outputs import drawn_image
 from orchestrate.progress import RunProgress, run_progress, wanted
-from orchestrate.results import Result, load_result
 from orchestrate.scene import Scene, SceneError, to_freefem_scene
 from orchestrate.steps import StepsError, choose_steps
+
+if TYPE_CHECKING:
+    from orchestrate.results import Result
 
 NAME_MAX, PATH_MAX = 255, 4096  # bytes in one path component, and in a whole path, on Linux
 SUFFIXES = (".partial", ".failed", ".replaced")  # the run's work folders beside <out>
@@ -83,6 +86,7 @@ def signals_as_interrupt():
             signal.signal(number, action)
 
 
+@functools.cache
 def package_versions() -> dict[str, str]:
     versions = {"python": platform.python_version()}
     for name in ("numpy", "meshio", "pyvista", "vtk", "matplotlib", "gmsh", "pydantic", "dask", "distributed"):
@@ -316,13 +320,13 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         try:
             with signals_as_interrupt():
                 planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar, trust_geo)
-                summary = build(planned, partial, bar, mesh_cache, ("-runIdentity", inputs["digest"], *solver_flags),
-                                restart, trust_geo)
+                summary, verified = build(planned, partial, bar, mesh_cache,
+                                          ("-runIdentity", inputs["digest"], *solver_flags), restart, trust_geo)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
                 (partial / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-                write_manifest(partial, inputs)
+                write_manifest(partial, inputs, verified)
                 retire(failed)
                 publish(partial, out)
         except (KeyboardInterrupt, Interrupted) as error:
@@ -339,7 +343,9 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         except Exception as error:  # a fault of this program: the folder still says what happened
             fail_into(partial, failed, f"{type(error).__name__}: {error}")
             raise
-    return load_result(out)
+    from orchestrate.results import Result
+
+    return Result(out)  # built and checked above (build, write_manifest): not read a second time
 
 
 def fail_into(partial: Path, failed: Path, reason: str) -> None:
@@ -461,7 +467,7 @@ def require_boundary_curves(body, index: int, info: meshing.MeshInfo) -> None:
                          f"of its triangles (at ({x:.6g}, {y:.6g})): a Physical Curve must be part of the boundary of "
                          "the meshed surface, else FreeFEM gets vertices it cannot solve for")
     contact = body.mesh.contactLabel
-    pieces = curve_pieces(np.concatenate([info.curves.get(label, np.zeros((0, 2, 2))) for label in contact]))
+    pieces = curve_pieces([segment for label in contact for segment in info.curves.get(label, [])])
     if len(pieces) > 1:
         where = " and ".join(f"({x:.6g}, {y:.6g})" for x, y in pieces[:2])
         raise SceneError(f"body{index}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}: Γ_C is "
@@ -470,8 +476,8 @@ def require_boundary_curves(body, index: int, info: meshing.MeshInfo) -> None:
                          "labels of their own and name one, or those that meet end to end")
 
 
-def curve_pieces(segments: np.ndarray) -> list[tuple[float, float]]:
-    """A point of each connected piece of a set of segments (k × 2 × 2 end points)."""
+def curve_pieces(segments: list) -> list[tuple[float, float]]:
+    """A point of each connected piece of a set of segments (((x1, y1), (x2, y2)) each)."""
     parent: dict[tuple, tuple] = {}
 
     def root(point: tuple) -> tuple:
@@ -479,7 +485,7 @@ def curve_pieces(segments: np.ndarray) -> list[tuple[float, float]]:
             point = parent[point]
         return point
 
-    for first, second in segments.tolist():
+    for first, second in segments:
         parent[root(tuple(first))] = root(tuple(second))
     return sorted({root(point) for point in list(parent)})
 
@@ -504,18 +510,32 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
     return scene.model_copy(update={"time": time_grid}), plan
 
 
+def prepare_reading() -> None:
+    """What reading a run back and its summary need and a command has not loaded yet (numpy and
+    the readers, the packages' versions: 50 ms of a 0.5 s run), made while FreeFem++ runs."""
+    importlib.import_module("orchestrate.results")
+    package_versions()
+
+
 def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, restart: bool):
-    """FreeFem++ on the run folder (from its checkpoint with `restart`), its steps on the bar."""
+    """FreeFem++ on the run folder (from its checkpoint with `restart`), its steps on the bar.
+    What reads the run back is made ready meanwhile (prepare_reading): this process only waits."""
     bar.steps(scene.time.N, checkpoint_step(folder) if restart else 0)
     flags = ["-out", ".", *(["-restart", "."] if restart else []), *solver_flags]
+    readers = threading.Thread(target=prepare_reading, daemon=True)
     with bar.following(folder / "history.csv"):
-        return run_logged(MAIN, flags, folder / "run.log", folder, defines={"SCENE": "scene.idp"}, append=restart)
+        done = run_logged(MAIN, flags, folder / "run.log", folder, defines={"SCENE": "scene.idp"}, append=restart,
+                          meanwhile=readers.start)
+    if readers.is_alive():
+        readers.join()
+    return done
 
 
 def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None = None, solver_flags: tuple = (),
-          restart: bool = False, trust_geo: bool = False) -> dict:
+          restart: bool = False, trust_geo: bool = False) -> tuple[dict, dict]:
     """Everything of a run inside `folder` (continued from its checkpoint with `restart`);
-    returns the summary (without the total wall time)."""
+    returns the summary (without the total wall time) and the SHA-256 of the driver's files, each
+    checked against its content (manifest.check_files)."""
     timing = {}
     (folder / "scene.toml").write_text(scene.to_toml())
     clock = time.perf_counter()
@@ -530,9 +550,9 @@ def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None 
         tail = "\n".join(done.stdout.splitlines()[-15:])
         raise SolverError(done.returncode, python_spelling(done.error_line), tail)
     bar.phase("reading the files back")
-    check_files(folder)
-    run_facts = facts(folder)
+    from orchestrate.results import Result
 
+    run_facts = check_files(folder)
     result = Result(folder)
     clock = time.perf_counter()
     if scene.output.images and result.outputs:
@@ -552,7 +572,7 @@ def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None 
         "timing": {name: round(value, 6) if value is not None else None for name, value in timing.items()},
         "versions": {"freefem": result.params.get("freefemVersion"), **package_versions()},
         "scene": portable(scene.model_dump(mode="json")),
-    }
+    }, run_facts["fileDigests"]
 
 
 def portable(data):

@@ -21,7 +21,6 @@ import math
 import shutil
 from pathlib import Path
 
-from orchestrate.compare import instant_distances
 from orchestrate.freefem import SolverError
 from orchestrate.mesh import MeshError
 from orchestrate.parameters import ORDER, PARAMETERS
@@ -69,6 +68,8 @@ def pilot(scene, steps: int, folder: Path, run, mesh_cache: Path | None, trust_g
 
 
 def relative_distance(first: Path, second: Path, first_steps: int, second_steps: int) -> float:
+    from orchestrate.compare import instant_distances  # numpy's: a run of a given N never loads it
+
     row = instant_distances(first, second, first_steps, second_steps, 1)[0]
     return row["errorV"] / row["normV"] if row["normV"] > 0 else 0.0
 

@@ -157,10 +157,12 @@ def test_a_run_with_blocks_continues_to_the_bit_after_a_restart(tmp_path, hertz_
 
 
 def plugin_copy(parent: Path) -> Path:
-    """bin and edp of the repository, copied with their file times."""
+    """bin and edp of the repository, copied with their file times, and the stamps' reader."""
     copy = parent / "repo"
     for name in ("bin", "edp"):
         shutil.copytree(REPO / name, copy / name)
+    (copy / "orchestrate").mkdir()
+    shutil.copy2(REPO / "orchestrate" / "identity.py", copy / "orchestrate")
     return copy
 
 

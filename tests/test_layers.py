@@ -16,7 +16,7 @@ pytestmark = pytest.mark.unit
 # From the bottom up; a module may import from its own layer and those below. "" is the package's
 # __init__, the API users import (`from orchestrate import run` is an import of it).
 LAYERS = [
-    {"identity", "expr", "gmsh_mesher"},
+    {"identity", "expr", "gmsh_mesher", "msh"},
     {"freefem"},
     {"geo", "outputs", "progress", "parameters"},
     {"mesh", "manifest", "plots"},
@@ -143,6 +143,7 @@ def test_a_command_loads_only_what_it_uses():
     module is its name without hyphens, which is how the parser finds it without importing the
     others."""
     import importlib
+    import os
     import subprocess
     import sys
 
@@ -150,11 +151,28 @@ def test_a_command_loads_only_what_it_uses():
 
     for module in COMMANDS + STUDIES:
         assert importlib.import_module(module).NAME.replace("-", "") == module.rsplit(".", 1)[1]
-    probe = ("import sys; from orchestrate.cli import parser; import orchestrate; "
+    unloaded = ("matplotlib", "orchestrate.render", "orchestrate.studies", "numpy", "meshio", "gmsh", "orchestrate.compare",
+                "orchestrate.sweep", "orchestrate.results")
+    probe = ("import os, sys; from orchestrate.cli import parser; import orchestrate, orchestrate.runner; "
              "parser(['run', 'scene.toml']).parse_args(['run', 'scene.toml']); "
-             "print(sorted(name for name in ('matplotlib', 'orchestrate.render', 'orchestrate.studies') if name in sys.modules))")
-    done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, check=True)
-    assert done.stdout.strip() == "[]"
+             "print(sorted(name for name in os.environ['UNLOADED'].split() if name in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, check=True,
+                          env={**os.environ, "UNLOADED": " ".join(unloaded)})
+    assert done.stdout.strip() == "[]"  # what a run needs before FreeFem++ starts: numpy loads while it runs
     from orchestrate import plot_sweep  # the lazy name still works
 
     assert plot_sweep.__module__ == "orchestrate.plot"
+
+
+def test_the_package_s_names_are_its_functions_whatever_was_imported_first():
+    """orchestrate.compare and orchestrate.sweep are the functions, also after their modules of
+    the same name were imported (by the package's own modules, or a user); every name of
+    __all__ is there, and a wrong one is an AttributeError."""
+    import subprocess
+    import sys
+
+    probe = ("import orchestrate.compare, orchestrate.sweep, orchestrate; from orchestrate import compare, sweep; "
+             "print(callable(orchestrate.compare), callable(orchestrate.sweep), compare.__name__, sweep.__module__, "
+             "all(hasattr(orchestrate, name) for name in orchestrate.__all__), hasattr(orchestrate, 'nothing'))")
+    done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "True", "compare", "orchestrate.sweep", "True", "False"]

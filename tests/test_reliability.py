@@ -274,8 +274,8 @@ def test_files_cut_short_without_an_error_are_never_taken_as_a_run(tmp_path):
 def test_a_run_whose_files_are_cut_short_is_not_published(tmp_path, monkeypatch):
     real = runner_module.run_logged
 
-    def then_truncate(script, args, log, cwd, defines=None, append=False):
-        done = real(script, args, log, cwd, defines, append)
+    def then_truncate(script, args, log, cwd, defines=None, append=False, meanwhile=None):
+        done = real(script, args, log, cwd, defines, append, meanwhile)
         vtu = cwd / "body2_0020.vtu"
         vtu.write_bytes(vtu.read_bytes()[:5000])  # what a full disk leaves
         return done

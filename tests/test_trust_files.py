@@ -79,6 +79,40 @@ def test_a_run_s_inputs_hold_the_solver_s_identity():
     assert inputs_of(Scene.load(PAPER))["solver"] == solver_identity()
 
 
+@pytest.mark.unit
+def test_a_kept_fact_is_taken_only_for_the_file_as_it_was(tmp_path, monkeypatch):
+    """StampedFacts (the digests of the identity, the meshes read whole): a fact is taken from
+    the store by another process only while the file keeps its stamp; a change that keeps the
+    size and puts the modification time back still changes it (the change time), a file changed
+    within SETTLED seconds is not kept for others, and a damaged or misplaced entry is computed
+    anew, never believed."""
+    from orchestrate import identity
+
+    computed = []
+
+    def facts(store: Path) -> identity.StampedFacts:  # a fresh process's view of the store
+        return identity.StampedFacts(store, lambda path: computed.append(path) or path.read_text())
+
+    store, file = tmp_path / "store", tmp_path / "data.txt"
+    file.write_text("first")
+    assert facts(store).of(file) == "first" and len(computed) == 1
+    assert facts(store).of(file) == "first" and len(computed) == 2  # changed just now: kept by no one else
+    monkeypatch.setattr(identity, "SETTLED", -1.0)
+    facts(store).of(file)
+    assert facts(store).of(file) == "first" and len(computed) == 3  # settled: the second process computed nothing
+    before = file.stat()
+    file.write_text("other")  # the same size, and the modification time put back
+    os.utime(file, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert facts(store).of(file) == "other" and len(computed) == 4
+    for entry in store.iterdir():
+        entry.write_text("{not json")
+    assert facts(store).of(file) == "other" and len(computed) == 5
+    entry = facts(store).entry_file(str(file))
+    record = json.loads(entry.read_text())
+    entry.write_text(json.dumps({**record, "path": str(tmp_path / "another.txt"), "fact": "forged"}))
+    assert facts(store).of(file) == "other" and len(computed) == 6  # an entry of another path, the stamp this file's
+
+
 # --- 6, 7. readers take only what the manifest lists ---------------------------------------------
 
 @pytest.fixture(scope="module")

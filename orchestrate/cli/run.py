@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from orchestrate.arguments import parse_assignments
 from orchestrate.cli.options import add_trust_geo
 from orchestrate.freefem import InputError
-from orchestrate.results import Result
 from orchestrate.runner import run
+
+if TYPE_CHECKING:
+    from orchestrate.results import Result
 
 NAME, HELP = "run", "run a scene (TOML) into a folder"
 
