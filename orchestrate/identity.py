@@ -11,10 +11,10 @@ Also the stamp of a project plugin's build (`plugin_stamp`, `stale_plugins`): bi
 it beside each .so it compiles and refuses a run whose plugin was built from another source or
 for another FreeFem++; orchestrate checks the same stamps in-process.
 
-A file's SHA-256 is kept in results/.cache/digests/ against its stamp (size, times, inode),
-as git's index keeps one (`StampedFacts`): a command does not read FreeFem++'s 16 MB again on
-every run. A file changed within the last seconds is hashed afresh by each process (a change in
-the same clock tick would keep its stamp).
+The SHA-256 of a file outside the repository (FreeFem++'s 16 MB, its plugins) is kept in
+results/.cache/digests/ against the file's stamp (size, times, inode), as git's index keeps one
+(`StampedFacts`): a command does not read it again on every run. The repository's own files,
+which a user edits, are hashed afresh by each process (8 ms).
 
 Standard library only: bin/ff and bin/plugins run this file with the system's python3
 (`python3 identity.py [main.edp]` prints the identity, `--plugin-stamp SOURCE` a plugin's stamp,
@@ -85,13 +85,17 @@ class StampedFacts:
     """What `compute` made of a file, kept between processes against the file's stamp (device,
     inode, size, modification and change times: a change to the file changes one of them), as
     git's index keeps a file's hash: one small JSON file per file in `folder`, named by the
-    digest of its path, written atomically. A fact of a file changed less than SETTLED seconds
-    before is kept by this process only: another's change within the same clock tick would keep
-    its stamp. An unreadable or unwritable store only costs the computing; compute's exceptions
-    pass through, and nothing is kept of a file it refused."""
+    digest of its path, written atomically, taken only when it names the path, the stamp and
+    `version` (the code that made the fact) and `check` accepts its fact. A fact of a file changed
+    less than SETTLED seconds before it was read is kept by this process only: another's change
+    within the same clock tick would keep its stamp. Within a process a fact follows the file
+    through a rename (device, inode, size and modification time). An unreadable or unwritable
+    store only costs the computing; compute's exceptions pass through, and nothing is kept of a
+    file it refused."""
 
-    def __init__(self, folder: Path, compute):
-        self.folder, self.compute, self.memory, self.lock = folder, compute, {}, threading.Lock()
+    def __init__(self, folder: Path, compute, version: str = "", check=lambda fact: True):
+        self.folder, self.compute, self.version, self.check = folder, compute, version, check
+        self.memory, self.lock = {}, threading.Lock()
 
     def forget(self) -> None:
         """Read the stored facts anew at the next use, as a fresh process would."""
@@ -99,20 +103,23 @@ class StampedFacts:
             self.memory.clear()
 
     def of(self, path: Path):
+        now = time.time_ns()
         status = path.stat()
         stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
-        name = str(path)
+        here = tuple(stamp[:4])
         with self.lock:
-            entry = self.memory.get(name)
-        entry = entry or self.stored(name)
+            if here in self.memory:
+                return self.memory[here]
+        entry = self.stored(str(path))
         if entry and entry["stamp"] == stamp:
-            return entry["fact"]
-        entry = {"path": name, "stamp": stamp, "fact": self.compute(path)}
+            fact = entry["fact"]
+        else:
+            fact = self.compute(path)
+            if now - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
+                self.store({"path": str(path), "version": self.version, "stamp": stamp, "fact": fact})
         with self.lock:
-            self.memory[name] = entry
-        if time.time_ns() - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
-            self.store(entry)
-        return entry["fact"]
+            self.memory[here] = fact
+        return fact
 
     def entry_file(self, name: str) -> Path:
         return self.folder / f"{hashlib.sha256(name.encode('utf-8', 'surrogateescape')).hexdigest()[:32]}.json"
@@ -122,9 +129,12 @@ class StampedFacts:
             entry = json.loads(self.entry_file(name).read_text())
         except (OSError, ValueError):
             return None
-        return entry if isinstance(entry, dict) and entry.get("path") == name and "fact" in entry else None
+        whole = (isinstance(entry, dict) and entry.get("path") == name and entry.get("version") == self.version
+                 and isinstance(entry.get("stamp"), list) and len(entry["stamp"]) == 5 and "fact" in entry)
+        return entry if whole and self.check(entry["fact"]) else None
 
     def store(self, entry: dict) -> None:
+        partial = None
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
             handle, partial = tempfile.mkstemp(dir=self.folder, suffix=".partial")
@@ -133,6 +143,9 @@ class StampedFacts:
             os.replace(partial, self.entry_file(entry["path"]))
         except OSError:
             pass
+        finally:
+            if partial:
+                Path(partial).unlink(missing_ok=True)
 
 
 def sha256_of(path: Path) -> str:
@@ -143,16 +156,21 @@ def sha256_of(path: Path) -> str:
     return sha.hexdigest()
 
 
-DIGESTS = StampedFacts(CACHE / "digests", sha256_of)
+def is_hex_digest(fact) -> bool:
+    return isinstance(fact, str) and len(fact) == 64 and all(c in "0123456789abcdef" for c in fact)
+
+
+DIGESTS = StampedFacts(CACHE / "digests", sha256_of, "sha256", is_hex_digest)
 
 
 def digest_of(path: Path) -> str:
+    """A file's SHA-256: kept between processes for a file outside the repository (FreeFem++ and
+    its plugins, which the package manager replaces whole), read afresh for the repository's own,
+    which a user edits, perhaps on a file system whose change times follow what a program sets."""
     try:
-        return DIGESTS.of(path)
+        return DIGESTS.of(path) if not path.is_relative_to(EDP.parent) else sha256_of(path)
     except FileNotFoundError:
         return "missing"  # a plugin not built yet: its check refuses the run
-
-
 
 
 def solver_identity(main: Path = EDP / "main.edp") -> str:

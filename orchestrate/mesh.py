@@ -14,8 +14,9 @@ run by hand mesh the paper's scene identically.
 gmsh exits 0 even when it could not write its whole file (a full disk, a file-size limit), and a
 .msh cut short crashes FreeFEM's reader: every mesh is read back (`read_msh`) before it enters the
 cache and again before it is used (once while the file is unchanged: what it holds is kept against
-the file's stamp, `WHOLE`); a bad cache entry is rebuilt. Where a triangle is below gmshload's area limit the driver gets the mesh in FreeFEM's
-own format, made once per cache entry and kept beside it.
+the file's stamp, `WHOLE`); a bad cache entry is rebuilt. Where a triangle is below gmshload's
+area limit the driver gets the mesh in FreeFEM's own format, made once per cache entry and kept
+beside it.
 """
 from __future__ import annotations
 
@@ -140,9 +141,19 @@ def parsed(path: Path) -> dict:
                         "(cut short by a full disk or a file-size limit? mesh it again)") from None
 
 
-# Files read whole, kept against their stamps across processes (a rename keeps the stamp): each
-# mesh is parsed once, not once to trust it and once to use it, nor again by the next run.
-WHOLE = StampedFacts(REPO / "results" / ".cache" / "meshes-read", parsed)
+def whole_record(record) -> bool:
+    try:
+        MeshInfo.from_record(record)
+        return True
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return False
+
+
+# Files read whole, kept against their stamps across processes, by the parser that read them
+# (msh.py's digest): each mesh is parsed once, not once to trust it and once to use it, nor again
+# by the next run.
+WHOLE = StampedFacts(REPO / "results" / ".cache" / "meshes-read", parsed,
+                     hashlib.sha256(Path(__file__).with_name("msh.py").read_bytes()).hexdigest(), whole_record)
 
 
 def read_msh(path: Path) -> MeshInfo:

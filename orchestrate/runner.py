@@ -321,7 +321,8 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
             with signals_as_interrupt():
                 planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar, trust_geo)
                 summary, verified = build(planned, partial, bar, mesh_cache,
-                                          ("-runIdentity", inputs["digest"], *solver_flags), restart, trust_geo)
+                                          ("-runIdentity", inputs["digest"], "-solverIdentity", inputs["solver"],
+                                           *solver_flags), restart, trust_geo)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
@@ -512,9 +513,21 @@ def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: 
 
 def prepare_reading() -> None:
     """What reading a run back and its summary need and a command has not loaded yet (numpy and
-    the readers, the packages' versions: 50 ms of a 0.5 s run), made while FreeFem++ runs."""
-    importlib.import_module("orchestrate.results")
-    package_versions()
+    the readers, the packages' versions: 50 ms of a 0.5 s run), made while FreeFem++ runs. A
+    failure is left to the reading itself, which meets it again and says it once."""
+    try:
+        importlib.import_module("orchestrate.results")
+        package_versions()
+    except Exception:
+        pass
+
+
+def start_quietly(thread: threading.Thread) -> None:
+    """Start a thread that only saves time: a system that refuses one costs the time, not the run."""
+    try:
+        thread.start()
+    except RuntimeError:
+        pass
 
 
 def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, restart: bool):
@@ -525,7 +538,7 @@ def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, res
     readers = threading.Thread(target=prepare_reading, daemon=True)
     with bar.following(folder / "history.csv"):
         done = run_logged(MAIN, flags, folder / "run.log", folder, defines={"SCENE": "scene.idp"}, append=restart,
-                          meanwhile=readers.start)
+                          meanwhile=lambda: start_quietly(readers))
     if readers.is_alive():
         readers.join()
     return done

@@ -176,3 +176,24 @@ def test_the_package_s_names_are_its_functions_whatever_was_imported_first():
              "all(hasattr(orchestrate, name) for name in orchestrate.__all__), hasattr(orchestrate, 'nothing'))")
     done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["True", "True", "compare", "orchestrate.sweep", "True", "False"]
+
+
+def test_the_command_ends_fast_but_says_what_it_could_not_print(tmp_path):
+    """`python -m orchestrate` ends its process without Python's teardown, yet output it could not
+    write (a full disk, a reader gone) still ends it with Python's code 120 and a message; run
+    inside another program (runpy), it returns to that program."""
+    import os
+    import subprocess
+    import sys
+
+    env = {name: value for name, value in os.environ.items() if name != "PYTHONUNBUFFERED"}
+    command = [sys.executable, "-m", "orchestrate", "reference", "--out", str(tmp_path / "page.md"), "--force"]
+    with open("/dev/full", "w") as full:
+        done = subprocess.run(command, cwd=REPO, env=env, stdout=full, stderr=subprocess.PIPE, text=True)
+    assert done.returncode == 120 and "No space left on device" in done.stderr
+    host = ("import runpy, sys; sys.argv = ['orchestrate', 'reference', '--out', sys.argv[1], '--force']\n"
+            "try:\n    runpy.run_module('orchestrate', run_name='__main__')\n"
+            "except SystemExit as end:\n    print('the host goes on after', end.code)")
+    done = subprocess.run([sys.executable, "-c", host, str(tmp_path / "again.md")], cwd=REPO, env=env,
+                          capture_output=True, text=True)
+    assert done.stdout.splitlines()[-1] == "the host goes on after 0", done.stderr

@@ -81,17 +81,19 @@ def test_a_run_s_inputs_hold_the_solver_s_identity():
 
 @pytest.mark.unit
 def test_a_kept_fact_is_taken_only_for_the_file_as_it_was(tmp_path, monkeypatch):
-    """StampedFacts (the digests of the identity, the meshes read whole): a fact is taken from
-    the store by another process only while the file keeps its stamp; a change that keeps the
-    size and puts the modification time back still changes it (the change time), a file changed
-    within SETTLED seconds is not kept for others, and a damaged or misplaced entry is computed
+    """StampedFacts (FreeFem++'s digests, the meshes read whole): a fact is taken from the store by
+    another process only while the file keeps its stamp; a change that keeps the size and puts the
+    modification time back still changes it (the change time), a file changed within SETTLED
+    seconds of its reading is not kept for others, and an entry that is damaged, of another path,
+    without a stamp, of another version of the code or whose fact its check refuses is computed
     anew, never believed."""
     from orchestrate import identity
 
     computed = []
 
-    def facts(store: Path) -> identity.StampedFacts:  # a fresh process's view of the store
-        return identity.StampedFacts(store, lambda path: computed.append(path) or path.read_text())
+    def facts(store: Path, version: str = "1") -> identity.StampedFacts:  # a fresh process's view of the store
+        return identity.StampedFacts(store, lambda path: computed.append(path) or path.read_text(), version,
+                                     lambda fact: fact != "refused")
 
     store, file = tmp_path / "store", tmp_path / "data.txt"
     file.write_text("first")
@@ -104,13 +106,17 @@ def test_a_kept_fact_is_taken_only_for_the_file_as_it_was(tmp_path, monkeypatch)
     file.write_text("other")  # the same size, and the modification time put back
     os.utime(file, ns=(before.st_atime_ns, before.st_mtime_ns))
     assert facts(store).of(file) == "other" and len(computed) == 4
-    for entry in store.iterdir():
-        entry.write_text("{not json")
-    assert facts(store).of(file) == "other" and len(computed) == 5
     entry = facts(store).entry_file(str(file))
     record = json.loads(entry.read_text())
-    entry.write_text(json.dumps({**record, "path": str(tmp_path / "another.txt"), "fact": "forged"}))
-    assert facts(store).of(file) == "other" and len(computed) == 6  # an entry of another path, the stamp this file's
+    for damaged in ("{not json", json.dumps({**record, "path": str(tmp_path / "another.txt"), "fact": "forged"}),
+                    json.dumps({key: value for key, value in record.items() if key != "stamp"}),
+                    json.dumps({**record, "fact": "refused"})):
+        entry.write_text(damaged)
+        computed.clear()
+        assert facts(store).of(file) == "other" and len(computed) == 1, damaged
+    computed.clear()
+    assert facts(store, "2").of(file) == "other" and len(computed) == 1  # another version of the code
+    assert not list(store.glob("*.partial"))
 
 
 # --- 6, 7. readers take only what the manifest lists ---------------------------------------------
