@@ -102,3 +102,22 @@ def test_the_adaptivity_study_reports_estimate_and_error_per_cycle(tmp_path):
     assert all(0.4 < row["effectivity"] < 2.5 for row in rows)
     assert (tmp_path / "study" / "adaptivity.png").stat().st_size > 10_000
     assert (tmp_path / "study" / "adaptivity.csv").read_text().startswith("target,cycle,nodes,estimate,error")
+
+
+@pytest.mark.unit
+def test_the_adapted_family_s_rates_are_the_slopes_of_its_designs():
+    """The rates come from the run that met each target, and only where its error is well above
+    the reference's own: on errors that follow N^-0.5, N^-1 and N^-0.25 exactly, the rates are
+    those exponents; a design near the reference's accuracy, and the earlier cycles, are left out."""
+    from orchestrate.studies.adaptivity import FULL, adapted_rates, designs
+
+    def row(target, cycle, nodes, scale=1.0):
+        return {"target": target, "cycle": cycle, "nodes": nodes, "error": scale * nodes ** -0.5,
+                "errorZeta": nodes ** -1.0, "errorBeta": nodes ** -0.25}
+
+    rows = [row(0.02, 0, 1000, 5.0), row(0.02, 1, 2000), row(0.01, 0, 1000, 5.0), row(0.01, 1, 8000),
+            row(0.002, 0, 1000, 5.0), row(0.002, 1, 9 * 10 ** 6)]  # the last: an error of 0.033 %, near 0.03 %
+    used = designs(rows, FULL)
+    assert [r["nodes"] for r in used] == [2000, 8000]
+    assert adapted_rates(used) == pytest.approx({"‖u − u_ref‖_V": 0.5, "‖ζ − ζ_ref‖_L2": 1.0,
+                                                 "‖β − β_ref‖_L2(Γ_C)": 0.25})

@@ -49,6 +49,10 @@ def test_the_adapted_meshes_are_a_variant_of_their_own(quick):
     assert adapted[0]["adaptSeconds"] > adapted[0]["wall"]
     report = (out / "README.md").read_text()
     assert "| 3 % | " in report and "Adapted meshes (bdf2)" in report
+    assert adapted[0]["adaptTarget"] == 0.03
+    line = next(line for line in report.split("Adapted meshes (bdf2)")[1].splitlines() if line.startswith("| 3 % |"))
+    assert f"| {100 * adapted[0]['adaptEstimate']:.3f} %" in line
+    assert ("NOT REACHED" in line) == (adapted[0]["adaptEstimate"] > 0.03)
 
 
 def test_measurements_are_consistent(quick):

@@ -53,6 +53,26 @@ def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_
     assert 0.9 < rates(table, "time euler")["errorV"]["reference"] < 1.1
 
 
+def test_a_space_ladder_on_graded_meshes_takes_the_scheme_it_is_given(tmp_path):
+    """--set reaches every run of the study (a graded space ladder in bdf2, as
+    results/convergence-graded) and its reproduce line; its meshes are not nested, and its error in
+    ‖·‖_V still falls at least at the theorem's h^(3/4)."""
+    table = convergence(REPO / "scenes" / "paper_graded.toml", tmp_path, count=3, n1=12, n2=6, steps=10,
+                        kinds=("space",), space_steps_level=0, settings={"time.scheme": "bdf2"})
+    assert {row["scheme"] for row in table} == {"bdf2"}
+    assert "--set time.scheme=bdf2" in (tmp_path / "README.md").read_text()
+    assert rates(table, "space")["errorV"]["successive"] >= 0.75
+
+
+@pytest.mark.unit
+def test_a_study_refuses_a_setting_its_ladders_make(tmp_path):
+    from orchestrate.freefem import InputError
+
+    with pytest.raises(InputError, match=r"--set time.N: the study sets it for each run"):
+        convergence(REPO / "scenes" / "paper.toml", tmp_path / "study", settings={"time.N": 5})
+    assert not (tmp_path / "study").exists()
+
+
 @pytest.mark.unit
 def test_every_option_of_every_command_says_its_default():
     """`--help` of each command and study: an option with a default names it (argparse's own,

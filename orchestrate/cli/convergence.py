@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from orchestrate.arguments import parse_assignments
 from orchestrate.cli.options import add_force_argument, at_least_two, choices_list, positive
 from orchestrate.parameters import PARAMETERS
 from orchestrate.studies.convergence import KINDS, NAME, convergence, time_mesh_level
@@ -29,6 +30,9 @@ def add_arguments(parser) -> None:
                         help="time steps at the coarsest level of the time ladders (default: --N)")
     parser.add_argument("--time-levels", type=at_least_two, default=None,
                         help="levels of each time ladder (default: --levels)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene value for every run, as run --set (e.g. --set time.scheme=bdf2 for the space "
+                             "ladder); not the meshes' n, time.N or the outputs, which the ladders set")
     parser.add_argument("--workers", type=positive, default=2, help="runs at a time")
     parser.add_argument("--out", default="results/convergence", help="a new folder for the tables, plots and runs")
     add_force_argument(parser, f"study {NAME}")
@@ -40,6 +44,6 @@ def command(options) -> int:
                 space_steps_level=options.space_steps_level,
                 kinds=options.ladders, schemes=options.schemes or (None,), time_steps=options.time_N,
                 time_count=options.time_levels, workers=options.workers, progress=sys.stderr.isatty(),
-                force=options.force)
+                force=options.force, settings=parse_assignments(options.set, "--set"))
     print((Path(options.out) / "README.md").read_text())
     return 0

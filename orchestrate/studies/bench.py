@@ -308,7 +308,8 @@ def adapted_rows(targets, fraction: float, model: dict, reference: Path, scratch
                "level": f"target {100 * goal:g} %", "n1": "", "folder": folder, "timeTarget": fraction * goal,
                "estimatedTimeError": estimated,
                **stable_run(FAMILIES["uniform"], {**overrides, **sizes}, folder, scratch / "meshes"),
-               "adaptSeconds": spent, "adaptCycles": last}
+               "adaptSeconds": spent, "adaptCycles": last, "adaptTarget": goal,
+               "adaptEstimate": loop[-1]["relative"]}
         row["errorToReference"] = final_distance(folder, reference)
         rows.append(row)
     return rows
@@ -415,7 +416,7 @@ COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N"
            "startup", "meshing", "setup", "columns", "loop", "output", "firstStep", "overheadRatio", "laterOverheadRatio",
            "laterOverheadLow", "laterOverheadHigh",
            "setupMemoryMB", "peakMemoryMB", "contactIters", "normV", "errorToReference", "errorToCheck", "adaptSeconds",
-           "adaptCycles"]
+           "adaptCycles", "adaptTarget", "adaptEstimate"]
 
 
 def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags: str, fraction: float,

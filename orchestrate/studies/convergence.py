@@ -19,6 +19,7 @@ levels that ran.
 """
 from __future__ import annotations
 
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -135,20 +136,23 @@ def rates(rows: list[dict], ladder: str) -> dict[str, dict[str, float]]:
 def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: int = 6, n2: int = 8, steps: int = 20,
                 time_mesh_level: int = 3, space_steps_level: int = 4, kinds=KINDS, schemes=(None,),
                 time_steps: int | None = None, time_count: int | None = None, workers: int = 2,
-                progress: bool | str = "auto", force: bool = False) -> list[dict]:
+                progress: bool | str = "auto", force: bool = False, settings: dict | None = None) -> list[dict]:
     """Run the ladders and write convergence.csv, README.md and convergence.png in `out`, the runs
     in out/runs: a new folder, or with `force` one an earlier study wrote, whose complete runs are
     then reused (outputs.py); progress: a bar of the runs, True, False or "auto" (where one can be
-    seen: progress.py)."""
+    seen: progress.py); settings: scene values for every run (dotted keys, as run's overrides),
+    none of those a ladder sets per level."""
     shown = wanted(progress)
     out = Path(out).resolve()
-    scene = Scene.load(scene_path)
+    settings = settings or {}
+    refuse_ladder_keys(settings)
+    scene = Scene.load(scene_path, settings)
     claim_folder(out, f"study {NAME}", FILES, force, folders=("runs",))
     studied = ladders(n1, n2, steps, count, time_mesh_level, space_steps_level, kinds, schemes, time_steps, time_count)
     jobs, planned, references = [], {}, {}
     for ladder in studied:
         times = [j * scene.time.T / ladder.instants for j in range(1, ladder.instants + 1)]
-        base = {"output.times": times, "output.fields": ["state"], "output.images": False}
+        base = {**settings, "output.times": times, "output.fields": ["state"], "output.images": False}
         rows, ladder_jobs = plan_runs(scene_path, ladder.levels, out / "runs" / ladder.name.replace(" ", "-"), base)
         planned[ladder.name] = rows
         jobs += ladder_jobs
@@ -178,10 +182,22 @@ def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: 
                f"--ladders {','.join(ladder for ladder in KINDS if ladder in kinds)} --levels {count} --n1 {n1} --n2 {n2} "
                f"--N {steps} --time-mesh-level {time_mesh_level} --space-steps-level {space_steps_level}"
                + (f" --schemes {','.join(schemes)} --time-N {time_steps or steps} --time-levels {time_count or count}"
-                  if "time" in kinds and all(schemes) else ""))
+                  if "time" in kinds and all(schemes) else "")
+               + "".join(f" --set {key}={shlex.quote(str(value))}" for key, value in settings.items()))
     observed = {ladder.name: rates(table, ladder.name) for ladder in studied}
     write_text(out / "README.md", convergence_report(table, observed, command, studied))
     return table
+
+
+LADDER_KEYS = ("body1.mesh.n", "body2.mesh.n", "time.N", "output.times", "output.fields")
+
+
+def refuse_ladder_keys(settings: dict) -> None:
+    """A setting of what the ladders set per level (or the study for every run) would be lost."""
+    taken = [key for key in settings if key in LADDER_KEYS]
+    if taken:
+        raise InputError(f"--set {taken[0]}: the study sets it for each run (the levels' meshes and steps, the saved "
+                         "states); give the ladder's --n1, --n2, --N or --time-N instead")
 
 
 FILES = ("convergence.csv", "README.md", "convergence.png")
