@@ -342,24 +342,30 @@ def plot_contact_line(result: Result, target: Path, time: float | None = None, d
     return target
 
 
+def history_panels(units: dict[str, str]) -> list[tuple[str, list[str], tuple[float, float] | None]]:
+    """history.png's panels: each one's title (with its unit), the columns drawn in it, and the
+    range to show when they never moved (a quantity of [0, 1]; None: the data's own)."""
+    return [(column_label("normV", units), ["normV"], None),
+            (f"max von Mises ({units['stress']})", ["vmMax1", "vmMax2"], None),
+            ("min damage ζ", ["zetaMin1", "zetaMin2"], (-0.05, 1.05)), ("bonding β", ["betaMin", "betaMean"], None),
+            (f"forces on body 1 across Γ_C ({units['force']})", ["contactForce", "forceX1", "forceY1"], None),
+            (f"closed length ({units['length']})", ["contactLength"], None)]
+
+
 def plot_history(runs: Result | dict[str, Result], target: Path, dpi: int = 110) -> Path:
     """The history.csv series over time; several runs ({label: result}) are drawn over each other,
     a line style per run and a colour per series."""
     runs = runs if isinstance(runs, dict) else {"": runs}
-    units = units_of(next(iter(runs.values())))
-    panels = [("‖u‖_V", ["normV"]), (f"max von Mises ({units['stress']})", ["vmMax1", "vmMax2"]),
-              ("min damage ζ", ["zetaMin1", "zetaMin2"]), ("bonding β", ["betaMin", "betaMean"]),
-              (f"forces on body 1 across Γ_C ({units['force']})", ["contactForce", "forceX1", "forceY1"]),
-              (f"closed length ({units['length']})", ["contactLength"])]
     figure, axes = pyplot().subplots(3, 2, figsize=(10, 8), sharex=True)
-    for axis, (title, columns) in zip(axes.flat, panels):
+    units = units_of(next(iter(runs.values())))
+    for axis, (title, columns, whole) in zip(axes.flat, history_panels(units)):
         for colour, column in enumerate(columns):
             for style, (label, result) in zip(("-", "--", ":", "-."), runs.items()):
                 h = result.history
                 axis.plot(h["t"], h[column], style, color=f"C{colour}", label=f"{column} ({label})" if label else column)
         series = np.concatenate([result.history[column] for column in columns for result in runs.values()])
-        if columns[0] == "zetaMin1" and np.ptp(series) <= UNIFORM:
-            axis.set_ylim(-0.05, 1.05)  # ζ that never moved: on its whole scale, not its round-off's
+        if whole and np.ptp(series) <= UNIFORM:
+            axis.set_ylim(*whole)  # a ζ that never moved: on its whole scale, not its round-off's
         else:
             steady_axis(axis, series)
         axis.set_title(title, fontsize=10)

@@ -277,3 +277,13 @@ def test_the_polymer_pad_runs_stiff_materials_in_few_steps_to_its_target(tmp_pat
     with pytest.raises(Exception, match="exceeds the explicit elastic bound"):
         run(SCENES / "polymer_pad.toml", tmp_path / "euler", {**sizes, "output.images": False, "time.N": steps,
                                                                 "time.scheme": "euler"})
+
+
+@pytest.mark.unit
+def test_the_committed_gallery_can_be_made_again_in_place():
+    """`make gallery` (orchestrate gallery --force) replaces the committed folders of a clean clone:
+    each holds a run's summary and images this package drew (their mark), nothing a user made."""
+    from orchestrate.runner import refuse_existing
+
+    for name in GALLERY:
+        refuse_existing(REPO / "results" / "gallery" / name, force=True)

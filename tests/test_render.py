@@ -138,8 +138,8 @@ def test_every_history_column_of_a_quantity_is_labelled_with_its_unit(coarse):
     """plot's axes: each column of history.csv that is a physical quantity gets its title and its
     unit in the scene's units (a reaction and an interface force are forces per unit thickness,
     the energies energies per unit thickness, ‖u‖_V = (∫ε:ε)^½ a length); the counts and the step's
-    CPU time keep their names."""
-    from orchestrate.render import UNITS, column_label
+    CPU time keep their names; history.png's panels say their units, ‖u‖_V's too."""
+    from orchestrate.render import UNITS, column_label, history_panels
 
     header = (coarse.folder / "history.csv").read_text().splitlines()[0].split(",")
     counts = {"n", "contactIters", "damageIters1", "damageIters2", "zetaBelowMin1", "zetaBelowMin2", "stepSeconds"}
@@ -150,6 +150,8 @@ def test_every_history_column_of_a_quantity_is_labelled_with_its_unit(coarse):
     assert column_label("elasticEnergy", UNITS["mm-N-s"]) == "elastic energy (N·mm/mm)"
     assert column_label("normV", si) == "‖u‖_V (m)" and column_label("t", si) == "time t (s)"
     assert column_label("betaMean", si) == "mean β over Γ_C"
+    titles = [title for title, _, _ in history_panels(UNITS["mm-N-s"])]
+    assert titles[0] == "‖u‖_V (mm)" and all(kind in " ".join(titles) for kind in ("MPa", "N/mm", "(mm)"))
 
 
 def overlap(a, b) -> bool:

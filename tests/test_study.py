@@ -1,9 +1,12 @@
 """The convergence study command on a quick ladder (three levels of each kind); the full ladder
 is `python -m orchestrate study convergence scenes/paper.toml` (results/convergence)."""
 import csv
+import json
+import shlex
 
 import pytest
 
+from orchestrate.arguments import parse_assignments
 from orchestrate.freefem import REPO
 from orchestrate.studies.convergence import convergence, rates
 
@@ -55,12 +58,18 @@ def test_time_ladders_per_scheme_share_one_reference_and_say_which_levels_could_
 
 def test_a_space_ladder_on_graded_meshes_takes_the_scheme_it_is_given(tmp_path):
     """--set reaches every run of the study (a graded space ladder in bdf2, as
-    results/convergence-graded) and its reproduce line; its meshes are not nested, and its error in
-    ‖·‖_V still falls at least at the theorem's h^(3/4)."""
+    results/convergence-graded) and its reproduce line, which gives back the same values (a
+    boolean too); its meshes are not nested, and its error in ‖·‖_V still falls at least at the
+    theorem's h^(3/4)."""
     table = convergence(REPO / "scenes" / "paper_graded.toml", tmp_path, count=3, n1=12, n2=6, steps=10,
-                        kinds=("space",), space_steps_level=0, settings={"time.scheme": "bdf2"})
+                        kinds=("space",), space_steps_level=0,
+                        settings={"time.scheme": "bdf2", "glue.shearDebonding": False})
     assert {row["scheme"] for row in table} == {"bdf2"}
-    assert "--set time.scheme=bdf2" in (tmp_path / "README.md").read_text()
+    used = {json.loads(path.read_text())["scheme"] for path in (tmp_path / "runs").rglob("params_used.json")}
+    assert used == {"bdf2"}  # what the runs themselves ran
+    line = next(line for line in (tmp_path / "README.md").read_text().splitlines() if "--set" in line)
+    given = [shlex.split(part)[0] for part in line.split(" --set ")[1:]]  # as a shell passes them
+    assert parse_assignments(given, "--set") == {"time.scheme": "bdf2", "glue.shearDebonding": False}
     assert rates(table, "space")["errorV"]["successive"] >= 0.75
 
 

@@ -31,8 +31,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--time-levels", type=at_least_two, default=None,
                         help="levels of each time ladder (default: --levels)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="a scene value for every run, as run --set (e.g. --set time.scheme=bdf2 for the space "
-                             "ladder); not the meshes' n, time.N or the outputs, which the ladders set")
+                        help="a scene value for every run, as run --set (e.g. --set time.scheme=bdf2 for the lock-step "
+                             "and space ladders; the time ladders take --schemes); not the meshes' n, time.N or the "
+                             "outputs, which the ladders set")
     parser.add_argument("--workers", type=positive, default=2, help="runs at a time")
     parser.add_argument("--out", default="results/convergence", help="a new folder for the tables, plots and runs")
     add_force_argument(parser, f"study {NAME}")

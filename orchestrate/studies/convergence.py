@@ -32,7 +32,7 @@ from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.plots import pyplot, save
 from orchestrate.progress import wanted
 from orchestrate.results import load_result
-from orchestrate.scene import Scene
+from orchestrate.scene import Scene, toml_value
 from orchestrate.studies.reports import QUANTITIES, LABELS, convergence_report, expected_order
 from orchestrate.sweep import plan_runs, run_jobs
 
@@ -183,13 +183,13 @@ def convergence(scene_path: str | Path, out: str | Path, *, count: int = 6, n1: 
                f"--N {steps} --time-mesh-level {time_mesh_level} --space-steps-level {space_steps_level}"
                + (f" --schemes {','.join(schemes)} --time-N {time_steps or steps} --time-levels {time_count or count}"
                   if "time" in kinds and all(schemes) else "")
-               + "".join(f" --set {key}={shlex.quote(str(value))}" for key, value in settings.items()))
+               + "".join(f" --set {shlex.quote(f'{key}={toml_value(value)}')}" for key, value in settings.items()))
     observed = {ladder.name: rates(table, ladder.name) for ladder in studied}
     write_text(out / "README.md", convergence_report(table, observed, command, studied))
     return table
 
 
-LADDER_KEYS = ("body1.mesh.n", "body2.mesh.n", "time.N", "output.times", "output.fields")
+LADDER_KEYS = ("body1.mesh.n", "body2.mesh.n", "time.N", "output.times", "output.fields", "output.images")
 
 
 def refuse_ladder_keys(settings: dict) -> None:
@@ -197,7 +197,7 @@ def refuse_ladder_keys(settings: dict) -> None:
     taken = [key for key in settings if key in LADDER_KEYS]
     if taken:
         raise InputError(f"--set {taken[0]}: the study sets it for each run (the levels' meshes and steps, the saved "
-                         "states); give the ladder's --n1, --n2, --N or --time-N instead")
+                         "states, no images); give the ladder's --n1, --n2, --N or --time-N instead")
 
 
 FILES = ("convergence.csv", "README.md", "convergence.png")
