@@ -198,8 +198,7 @@ def plugin_stamp(source: Path) -> str:
     if freefem is None:
         raise FileNotFoundError("FreeFem++ is not installed: run `make setup`")
     headers = size_and_time(CHOLMOD_HEADERS) if CHOLMOD_HEADERS.is_file() else ""
-    stamp = f"{digest_of(source.resolve())} {size_and_time(Path(os.path.realpath(freefem)))} {headers}"
-    return stamp
+    return f"{digest_of(source.resolve())} {size_and_time(Path(os.path.realpath(freefem)))} {headers}"
 
 
 def stale_plugins(folder: Path = EDP / "plugins") -> list[Path]:

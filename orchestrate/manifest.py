@@ -14,13 +14,14 @@ wrote by hand (run.json, no manifest) is checked file by file each time it is lo
 from __future__ import annotations
 
 import base64
-import hashlib
 import json
 import os
 import re
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from orchestrate.identity import sha256_of as digest
 
 if TYPE_CHECKING:  # the readers import numpy: the runner imports this module before FreeFem++ starts
     import numpy as np
@@ -235,14 +236,6 @@ def _check_pvd(path: Path, files: list[str]) -> None:
                 raise ValueError(f"entry {dataset.attrib} names no file of the run")
     except (ElementTree.ParseError, ValueError, TypeError) as error:
         raise IncompleteRun(f"{path}: not the run's collection ({error})") from None
-
-
-def digest(path: Path) -> str:
-    sha = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            sha.update(block)
-    return sha.hexdigest()
 
 
 def write_manifest(folder: Path, inputs: dict, verified: dict[str, str] | None = None) -> None:

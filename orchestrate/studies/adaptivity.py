@@ -25,7 +25,7 @@ from orchestrate.progress import wanted
 from orchestrate.results import load_result
 from orchestrate.runner import run
 from orchestrate.studies.convergence import slope
-from orchestrate.studies.reports import reproduce
+from orchestrate.studies.reports import LABELS, QUANTITIES as ERRORS, reproduce
 
 NAME = "adaptivity"
 FILES = ("adaptivity.csv", "README.md", "adaptivity.png")
@@ -119,7 +119,8 @@ def report(rows: list[dict], size: Size) -> str:
     return "\n".join(lines) + "\n"
 
 
-QUANTITIES = {"‖u − u_ref‖_V": "error", "‖ζ − ζ_ref‖_L2": "errorZeta", "‖β − β_ref‖_L2(Γ_C)": "errorBeta"}
+# The quantities' labels (the convergence study's), by this study's columns: ‖u‖_V's is relative.
+QUANTITIES = {LABELS[name]: column for name, column in zip(ERRORS, ("error", "errorZeta", "errorBeta"))}
 
 
 def designs(rows: list[dict], size: Size) -> list[dict]:
