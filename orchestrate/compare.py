@@ -93,6 +93,14 @@ def refuse(a: Result, b: Result, why: str) -> None:
                        "that overlap")
 
 
+def degree(result: Result) -> int:
+    """The degree of a run's displacements (params_used.json's order; 1 for a run from before it)."""
+    order = result.params.get("order", 1)
+    if order not in (1, 2):
+        raise RuntimeError(f"{result.folder}: params_used.json gives order = {order!r}, not a degree the driver has (1, 2)")
+    return order
+
+
 def interpolated_state(saved: list[tuple[float, Path]], t: float, out: Path) -> Path:
     """The state at t between two saved states of one run (linear in time: second order), written in
     the format of edp/lib/stateFile.idp. The trace coordinates s are the run's own and do not change
@@ -133,7 +141,8 @@ def pair_distances(run: Result, reference: Result, pairs: list[tuple[Path, Path]
         (scratch / "pairs.txt").write_text(f"{len(lines)}\n" + "\n".join(lines) + "\n")
         done = run_script(REPO / "edp" / "tools" / "errors.edp",
                           ["-mesh1", "run1.msh", "-mesh2", "run2.msh", "-refMesh1", "ref1.msh", "-refMesh2", "ref2.msh",
-                           "-pairs", "pairs.txt", "-out", "errors.csv"], cwd=scratch)
+                           "-pairs", "pairs.txt", "-out", "errors.csv"], cwd=scratch,
+                          defines={"RUNORDER": str(degree(run)), "REFORDER": str(degree(reference))})
         if done.returncode != 0:
             raise RuntimeError(f"errors.edp failed for {run.folder} against {reference.folder}: {done.error_line}")
         with open(scratch / "errors.csv") as handle:
@@ -157,6 +166,15 @@ def triangulation(path: Path):
     with contextlib.redirect_stdout(io.StringIO()):  # meshio's gmsh reader prints an empty line
         mesh = meshio.read(path)
     return mesh.points[:, :2], mesh.cells_dict["triangle"]
+
+
+def displacement_nodes(points: np.ndarray, triangles: np.ndarray, order: int) -> int:
+    """The nodes of a displacement of degree `order` on a mesh: its vertices, and at degree 2 its
+    edges' middles."""
+    if order == 1:
+        return len(points)
+    edges = np.sort(triangles[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    return len(points) + len(np.unique(edges, axis=0))
 
 
 def area(points: np.ndarray, triangles: np.ndarray) -> float:
@@ -278,7 +296,8 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
     for body in (0, 1):
         covers_one_body(meshes[a][body], meshes[b][body], (files[a][body], files[b][body]))
-    nodes = {run: sum(len(points) for points, _ in meshes[run]) for run in (a, b)}
+    nodes = {run: sum(displacement_nodes(points, triangles, degree(run)) for points, triangles in meshes[run])
+             for run in (a, b)}
     finer = (nodes[a], a.params["N"]) > (nodes[b], b.params["N"])
     reference = "a" if finer else "b"
     run, ref = (b, a) if finer else (a, b)

@@ -14,7 +14,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from orchestrate.compare import state_times
+from orchestrate.compare import degree, state_times
 from orchestrate.freefem import REPO, run_script
 from orchestrate.results import Result, load_result
 
@@ -26,6 +26,9 @@ def estimate(run: str | Path | Result, target: float | None = None, sizes: tuple
     (‖u_h‖_V) and relative (η/‖u_h‖_V). With a relative `target`, also each body's element sizes
     for a mesh whose estimate would be target·‖u_h‖_V, as gmsh views written to `sizes` (mesh.sizes)."""
     result = run if isinstance(run, Result) else load_result(run)
+    if degree(result) != 1:
+        raise RuntimeError(f"cannot estimate {result.folder}: its displacements are of degree {degree(result)}, and the "
+                           "estimate (edp/tools/estimate.edp, a recovery of P1 strains) reads degree 1 only so far")
     states = state_times(result)
     if not states:
         raise RuntimeError(f"cannot estimate {result.folder}: it saved no state (state_NNNN.txt); run with "

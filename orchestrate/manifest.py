@@ -188,7 +188,7 @@ def _check_vtu(path: Path, run: dict) -> None:
     part = path.name.rsplit("_", 1)[0]
     if part in ("body1", "body2"):
         body = part[-1]
-        expected = (run[f"nodes{body}"], run[f"triangles{body}"])
+        expected = (displacement_nodes(run, body), run[f"triangles{body}"] * (4 if run.get("order", 1) == 2 else 1))
         named = {array.get("Name") for array in piece.findall("PointData/DataArray")}
         missing = [name for name in BODY_ARRAYS if name not in named]
         triangles = int(np.count_nonzero(arrays["types"] == VTK_TRIANGLE))  # the boundary's edges are cells too
@@ -215,13 +215,20 @@ def _vtu_values(array) -> np.ndarray:
     return np.frombuffer(raw[4:], dtype=kind)
 
 
+def displacement_nodes(run: dict, body: str) -> int:
+    """The nodes of a body's displacement (run.json): its mesh's vertices at degree 1, and its edges'
+    middles too at degree 2 (the vertices of its mesh split in four, where its .vtu lies)."""
+    return run.get(f"displacementNodes{body}", run[f"nodes{body}"])
+
+
 def _check_state(path: Path, run: dict) -> None:
     try:
         state = read_state(path)
     except (ValueError, IndexError):
         raise IncompleteRun(f"{path}: cannot be read back; cut short?") from None
-    nodes, trace = (run["nodes1"], run["nodes2"]), run["traceNodes1"]
-    expected = dict(zip(STATE_ARRAYS, (2 * nodes[0], 2 * nodes[1], nodes[0], nodes[1], trace, trace - 1)))
+    segments = (run["traceNodes1"] - 1) // run.get("order", 1)  # β's, each with order + 1 of θ1_h's nodes
+    expected = dict(zip(STATE_ARRAYS, (2 * displacement_nodes(run, "1"), 2 * displacement_nodes(run, "2"),
+                                       run["nodes1"], run["nodes2"], segments + 1, segments)))
     wrong = [name for name, length in expected.items() if len(state[name]) != length]
     if wrong:
         raise IncompleteRun(f"{path}: arrays {', '.join(wrong)} have the wrong length")

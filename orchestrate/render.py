@@ -300,6 +300,13 @@ def line_position(points: np.ndarray, length_unit: str) -> tuple[np.ndarray, str
     return np.linalg.norm(points - points[0], axis=1), f"position along Γ_C ({length_unit})"
 
 
+def segment_edges(line, s: np.ndarray) -> np.ndarray:
+    """The positions of the contact line's segment ends (β's cells), in order: each cell's first
+    two points are its ends (a line, or a quadratic edge of degree 2 with its middle third)."""
+    ends = line.cells[0].data[:, :2]
+    return s[np.concatenate([ends[:, 0], ends[-1:, 1]])]
+
+
 def glued(result: Result) -> bool:
     """Whether the run has glue: bonds (β⁰ > 0 somewhere, or rebonding) that exert forces
     (γ_ν or p_τ > 0). Without, β is 0 or does nothing, and its panels would show noise."""
@@ -321,7 +328,7 @@ def plot_contact_line(result: Result, target: Path, time: float | None = None, d
     figure, axes = pyplot().subplots(2 + glue, 1, figsize=(7, 5.2 + 2.3 * glue), sharex=True)
     if glue:
         beta = line.cell_data["beta"][0]
-        axes[0].stairs(beta, s, baseline=None, color="tab:green")
+        axes[0].stairs(beta, segment_edges(line, s), baseline=None, color="tab:green")
         steady_axis(axes[0], beta)
         axes[0].set_ylabel("bonding β")
     axes = axes[glue:]
@@ -385,7 +392,8 @@ def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path
     for time, files in result.outputs:
         if "contact" in files:
             line = meshio.read(files["contact"])
-            edges, position_label = line_position(line.points, units_of(result)["length"])
+            position, position_label = line_position(line.points, units_of(result)["length"])
+            edges = segment_edges(line, position)
             rows.append(line.cell_data["beta"][0])
             times.append(time)
     times = np.array(times)

@@ -32,18 +32,19 @@ def gmsh_mesh(geo: str | Path, target: Path, **numbers: float) -> Path:
     return target
 
 
-def solve(out: Path, *args, scene: Path | None = None) -> tuple[Completed, Result]:
+def solve(out: Path, *args, scene: Path | None = None, order: int = 1) -> tuple[Completed, Result]:
     """Run edp/main.edp into `out` and return the completed process and its result folder. A scene
     file is passed by its bare name from its own folder (a path in -DSCENE goes through FreeFEM's
-    macro reader, which cuts it at '#')."""
-    defines = {"SCENE": scene.name} if scene else None
-    done = run_script(REPO / "edp" / "main.edp", [*map(str, args), "-out", str(out)], defines=defines,
+    macro reader, which cuts it at '#'); order 2 compiles the driver with -DORDER=2."""
+    defines = ({"SCENE": scene.name} if scene else {}) | ({"ORDER": str(order)} if order != 1 else {})
+    flags = ["-order", str(order)] if order != 1 else []
+    done = run_script(REPO / "edp" / "main.edp", [*map(str, args), *flags, "-out", str(out)], defines=defines or None,
                       cwd=scene.parent if scene else None)
     return done, Result(out)
 
 
-def solve_ok(out: Path, *args, scene: Path | None = None) -> Result:
-    done, result = solve(out, *args, scene=scene)
+def solve_ok(out: Path, *args, scene: Path | None = None, order: int = 1) -> Result:
+    done, result = solve(out, *args, scene=scene, order=order)
     assert done.returncode == 0, f"solver failed ({done.returncode}): {done.error_line}\n{done.stdout[-2000:]}"
     return result
 

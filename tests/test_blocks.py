@@ -5,7 +5,8 @@ lower block (body 2, (0,2)×(−1,0)); rollers elsewhere, no glue, non-matching 
 The exact discrete solution is then uniform in each body: σxx = σxy = 0, σyy = −p, the contact
 closed everywhere with the pressure p. A P1 mortar discretization must reproduce it to round-off
 (patch test), and its history must follow the scalar recursion of the scheme (docs/model.md §6), which
-`creep_recursion` computes here from the model's equations alone.
+`creep_recursion` computes here from the model's equations alone; so must the P2 discretization
+(docs/model.md §12(a): uniform stress is in the space; the exact discrete solution is the same).
 """
 import subprocess
 from dataclasses import dataclass
@@ -14,6 +15,8 @@ import numpy as np
 import pytest
 
 from conftest import SCENES, gmsh_mesh, solve, solve_ok
+from orchestrate.compare import compare
+from orchestrate.estimate import estimate
 from orchestrate.results import cell_field
 
 pytestmark = pytest.mark.solver
@@ -102,22 +105,36 @@ def blocks(tmp_path_factory):
     return blocks_run(tmp_path_factory.mktemp("blocks"), n=(7, 11), steps=N)
 
 
-def blocks_run(folder, n, steps, split=False):
-    """The blocks on gmsh meshes with n elements per side, each triangle split in four with `split`."""
+@pytest.fixture(scope="module")
+def blocks_p2(tmp_path_factory):
+    return blocks_run(tmp_path_factory.mktemp("blocks2"), n=(7, 11), steps=N, order=2)
+
+
+@pytest.fixture(scope="module", params=[1, 2], ids=["P1", "P2"])
+def ordered(request):
+    """The blocks with displacements of degree 1 and 2: (order, result)."""
+    return request.param, request.getfixturevalue("blocks" if request.param == 1 else "blocks_p2")
+
+
+def blocks_run(folder, n, steps, split=False, order=1):
+    """The blocks on gmsh meshes with n elements per side, each triangle split in four with `split`,
+    displacements of degree `order`."""
     upper = gmsh_mesh("meshes/rectangle.geo", folder / "upper.msh", x1=2, y0=0, y1=1, n=n[0])
     lower = gmsh_mesh("meshes/rectangle.geo", folder / "lower.msh", x1=2, y0=-1, y1=0, n=n[1])
     for mesh in (upper, lower) if split else ():
         subprocess.run(["gmsh", "-refine", str(mesh), "-o", str(mesh), "-format", "msh22"], check=True, capture_output=True)
     return solve_ok(folder / "run", "-mesh1", upper, "-mesh2", lower, "-T", T, "-N", steps,
                     "-outTimes", "all", "-outFields", "bodies,stress,contact,state", "-contactTol", 1e-14,
-                    *BODIES[0].flags(1), *BODIES[1].flags(2), scene=SCENES / "blocks.idp")
+                    *BODIES[0].flags(1), *BODIES[1].flags(2), scene=SCENES / "blocks.idp", order=order)
 
 
-def test_meshes_do_not_match(blocks):
-    assert len(blocks.fields("contact").points) == 8  # body 1's trace; body 2 has 12 nodes there
+def test_meshes_do_not_match(ordered):
+    order, blocks = ordered
+    assert len(blocks.fields("contact").points) == 7*order + 1  # body 1's trace; body 2 has 11·order + 1 nodes there
 
 
-def test_patch_stress_is_uniform_in_every_element_at_every_step(blocks):
+def test_patch_stress_is_uniform_in_every_element_at_every_step(ordered):
+    _, blocks = ordered
     assert len(blocks.outputs) == N
     for time, _ in blocks.outputs:
         for body in ("body1", "body2"):
@@ -129,14 +146,16 @@ def test_patch_stress_is_uniform_in_every_element_at_every_step(blocks):
             assert spread <= 1e-8 * scale, f"{body} at t={time}: stress varies by {spread / scale:.2e} (relative)"
 
 
-def test_patch_pressure_is_uniform_at_every_contact_node(blocks):
+def test_patch_pressure_is_uniform_at_every_contact_node(ordered):
+    _, blocks = ordered
     for time, _ in blocks.outputs:
         pressure = blocks.fields("contact", time).point_data["pressure"]
         assert pressure.min() > 0, f"contact not closed everywhere at t={time}"
         assert np.ptp(pressure) <= 1e-8 * pressure.mean(), f"pressure varies at t={time}"
 
 
-def test_creep_follows_the_scalar_recursion(blocks):
+def test_creep_follows_the_scalar_recursion(ordered):
+    _, blocks = ordered
     expected = creep_recursion()
     history = blocks.history
     pressure = np.array([step["pressure"] for step in expected])
@@ -314,3 +333,21 @@ def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(t
     assert middle["t"] == pytest.approx(0.75e-9, rel=1e-15)
     np.testing.assert_allclose(middle["u1"], [1.5, 15.0], rtol=1e-15)
     np.testing.assert_array_equal(middle["s"], [0.0, 1.0])
+
+
+def test_the_estimate_says_it_reads_degree_one_only(blocks_p2):
+    """A run of degree 2 is refused by the error estimate, a recovery of P1 strains, with what it
+    is: never read as if its P2 arrays were P1 ones."""
+    with pytest.raises(RuntimeError, match="degree 2, and the estimate .* reads degree 1 only"):
+        estimate(blocks_p2)
+
+
+def test_compare_measures_the_distance_between_the_degrees(blocks, blocks_p2):
+    """The blocks' exact discrete solution is the same uniform state at both degrees (the patch
+    test), so compare finds them at round-off distance from each other, the P1 run's field taken
+    into the P2 reference's space on the same meshes (nested: exact)."""
+    comparison = compare(blocks, blocks_p2)
+    assert comparison.reference == "b" and comparison.nested
+    for row in comparison.rows:
+        assert row["errorV"] <= 1e-10 * row["normV"] and row["errorZeta"] <= 1e-10 * row["normZeta"]
+        assert row["errorBeta"] == 0

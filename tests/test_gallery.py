@@ -41,7 +41,7 @@ def check_interface(result: Result) -> None:
 
 
 def segment_midpoints(line) -> np.ndarray:
-    ends = line.cells_dict["line"]
+    ends = line.cells[0].data[:, :2]  # a line's two points, or a quadratic edge's first two (degree 2)
     return 0.5 * (line.points[ends[:, 0], 0] + line.points[ends[:, 1], 0])
 
 
@@ -62,17 +62,19 @@ def bonding_along_x(result: Result, time: float) -> tuple[np.ndarray, np.ndarray
     return x[order], beta[order]
 
 
-@pytest.mark.parametrize("scheme", ["euler", "semi-implicit", "bdf2"])
-def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path, scheme):
+@pytest.mark.parametrize("scheme, order", [("euler", 1), ("semi-implicit", 1), ("bdf2", 1), ("euler", 2), ("bdf2", 2)])
+def test_the_tilted_patch_carries_its_uniform_stress_exactly(tmp_path, scheme, order):
     """u = −0.01 t (x, y): ε(u) = −0.01 t I, isotropic, so a frictionless interface of any
     slope carries it. With A τ = μ tr(τ) I + η τ and plane-stress G (docs/model.md §2), ζ uniform:
     σⁿ = −(2μ + η)·0.01 − ζⁿ E/(1 − ν)·0.01 tₙ in every triangle; the contact pressure balances
     step n's equation (docs/model.md §6, §9), whose rate is exact on this u for every scheme and
     whose elastic part is, with e = 0.01 E/(1 − ν): euler e ζⁿ⁻¹ tₙ₋₁ (explicit in ζⁿ⁻¹, uⁿ⁻¹);
     semi-implicit e (tₙ − (1 − ζⁿ⁻¹) tₙ₋₁) (G implicit, its weakening explicit); bdf2 e ζ* tₙ
-    (ζ* = 2ζⁿ⁻¹ − ζⁿ⁻², and u* = 2uⁿ⁻¹ − uⁿ⁻² is uⁿ for a u linear in t)."""
+    (ζ* = 2ζⁿ⁻¹ − ζⁿ⁻², and u* = 2uⁿ⁻¹ − uⁿ⁻² is uⁿ for a u linear in t). Displacements of degree
+    2 (space.order) hold it as well, on the bodies' meshes split in four in their .vtu."""
     result = coarse("tilted_patch", tmp_path, **{"body1.mesh.n": 6, "body2.mesh.n": 9, "output.times": "final",
-                                                 "time.scheme": scheme})
+                                                 "time.scheme": scheme, "space.order": order})
+    assert json.loads((result.folder / "run.json").read_text())["order"] == order
     p, h = result.params, result.history
     E, nu, mu, eta, T, N = p["E1"], p["nu1"], p["mu1"], p["eta1"], p["T"], p["N"]
     k = T / N
@@ -217,13 +219,15 @@ def test_the_precrack_stays_open_and_the_front_starts_at_its_tip(tmp_path):
     assert np.all(np.diff(fronts) <= 0) and fronts[-1] < 4.5 - 0.5, f"the front must move left: {fronts}"
 
 
-def test_the_joint_peels_from_its_tip_and_its_reaction_is_the_glue_s_pull(tmp_path):
+@pytest.mark.parametrize("order", [1, 2])
+def test_the_joint_peels_from_its_tip_and_its_reaction_is_the_glue_s_pull(tmp_path, order):
     """The polymer layer peeled off aluminium (scenes/joint.toml), coarser: the layer is held only at
     its peeled end, so that end's reaction balances the glue's pull across Γ_C at every step; the
     crack runs left from the pre-crack's tip (x = 27) once the force has risen, only left, while the
     far end stays bonded; and the energies balance to the time error (no damage, no rebonding, the
-    openings below L)."""
-    result = coarse("joint", tmp_path, **{"body1.mesh.n": 60, "body2.mesh.n": 30, "time.N": 100})
+    openings below L). So with displacements of degree 2 (its glue's band matrices, β on segments
+    of three nodes)."""
+    result = coarse("joint", tmp_path, **{"body1.mesh.n": 60, "body2.mesh.n": 30, "time.N": 100, "space.order": order})
     h = result.history
     np.testing.assert_allclose(h["reactionX1_2"] + h["forceX1"], 0, atol=1e-9 * np.abs(h["reactionY1_2"]).max())
     np.testing.assert_allclose(h["reactionY1_2"] + h["forceY1"], 0, atol=1e-9 * np.abs(h["reactionY1_2"]).max())

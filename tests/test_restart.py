@@ -48,10 +48,11 @@ def same_results(first: Path, second: Path) -> None:
     assert history[0] == history[1]
 
 
-def killed_driver(folder: Path, at_rows: int, extra: tuple = (), scene: Path | None = None, driver=DRIVER) -> None:
-    """The driver run into `folder` (with the scene file `scene`, from its folder), killed (SIGKILL)
-    once its history has `at_rows` rows."""
-    defines = {"SCENE": scene.name} if scene else None
+def killed_driver(folder: Path, at_rows: int, extra: tuple = (), scene: Path | None = None, driver=DRIVER,
+                  defines: dict | None = None) -> None:
+    """The driver run into `folder` (with the scene file `scene`, from its folder, and the macros
+    `defines`), killed (SIGKILL) once its history has `at_rows` rows."""
+    defines = ({"SCENE": scene.name} if scene else {}) | (defines or {}) or None
     process = subprocess.Popen(freefem_command(MAIN, [*driver, *extra, "-out", str(folder)], defines),
                                cwd=scene.parent if scene else REPO, env=freefem_env(),
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -100,6 +101,26 @@ def test_a_killed_run_of_an_implicit_scheme_continues_to_the_bit(tmp_path, schem
     assert done.returncode == 0, done.error_line
     assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= kill_at
     same_results(whole, folder)
+
+
+def test_a_killed_run_of_degree_two_continues_to_the_bit_and_not_at_another_degree(tmp_path):
+    """Displacements of degree 2 (the P2 state, its contact columns, the glue's band matrices): a
+    restart gives the uninterrupted run to the bit; a checkpoint of degree 1 is refused by a run of
+    degree 2, naming the parameter."""
+    extra, two = ("-scheme", "bdf2", "-order", "2"), {"ORDER": "2"}
+    whole = tmp_path / "whole"
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", whole], defines=two)
+    assert done.returncode == 0, done.error_line
+    folder = tmp_path / "run"
+    killed_driver(folder, 140, extra, defines=two)
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", folder, "-restart", folder], defines=two)
+    assert done.returncode == 0, done.error_line
+    assert 0 < json.loads((folder / "run.json").read_text())["restartedFrom"] <= 140
+    same_results(whole, folder)
+    other = tmp_path / "other"
+    killed_driver(other, 140, ("-scheme", "bdf2"))
+    done = run_script(MAIN, [*DRIVER, *extra, "-out", other, "-restart", other], defines=two)
+    assert done.returncode == 3 and "was made with order = 1, this run has order = 2" in done.error_line, done.error_line
 
 
 def test_a_run_killed_after_files_before_its_first_checkpoint_continues(tmp_path):
