@@ -22,6 +22,7 @@ from orchestrate.freefem import InputError
 from orchestrate.manifest import facts
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.runner import run
+from orchestrate.scene import Scene
 
 NAME = "adapt"
 FILES = ("adapt.csv", "README.md")
@@ -39,6 +40,9 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
         raise InputError(f"--target {target:g}: give the relative estimate to reach, in (0, 1), e.g. 0.01")
     if cycles < 1:
         raise InputError(f"--cycles {cycles}: give at least 1")
+    if Scene.load(scene, overrides).space.order != 1:  # before the pilot, not after it
+        raise InputError("space.order = 2: adapt designs its meshes from the error estimate, a recovery of P1 strains "
+                         "that reads displacements of degree 1 only so far; adapt with space.order = 1")
     out = Path(out)
     claim_folder(out, NAME, FILES, force, folders=("runs", "sizes"))
     forget_cycles(out)

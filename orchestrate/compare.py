@@ -4,11 +4,12 @@ At every time either run saved its state (state_NNNN.txt, output.fields "state")
 interval both cover, edp/tools/errors.edp measures ‖u_A − u_B‖_V, ‖ζ_A − ζ_B‖_L² and
 ‖β_A − β_B‖_L²(Γ_C) (docs/model.md section 11 for the symbols). A run that saved no state at one
 of those times is interpolated linearly in time between its neighbouring states (the report
-marks it). The coarser run's P1 fields are interpolated onto the finer run's meshes and
-integrated there; the figures are exact when the meshes are nested (every triangle of the coarser
-mesh is a union of triangles of the finer one: the same mesh, or the structured family under
-n → 2n), otherwise the interpolation error of the coarser run is part of them, and the report
-says which. The two runs must cover the same bodies: their meshes may differ, their domains may
+marks it). The other run's fields are put into the reference's spaces (the reference: the run
+with more displacement nodes, then the higher degree, then more steps) and integrated on its
+meshes; the figures are exact when the meshes are nested (every triangle of the other's mesh is a
+union of triangles of the reference's: the same mesh, or the structured family under n → 2n) and
+the other's displacements are of a degree not above the reference's (P1 in P2, not P2 in P1),
+otherwise the interpolation error of the other run is part of them, and the report says which. The two runs must cover the same bodies: their meshes may differ, their domains may
 not.
 
 The histories (history.csv) of both runs are drawn over each other in history.png of the
@@ -225,18 +226,20 @@ def differing_parameters(a: Result, b: Result) -> dict[str, tuple]:
     """The parameters whose values differ, from each run's params_used.json (mesh files aside)."""
     skip = {"out", "meshFile1", "meshFile2", "mesh1", "mesh2", "restart"}
     names = [name for name in {**a.params, **b.params} if name not in skip]
-    return {name: (a.params.get(name), b.params.get(name)) for name in names if a.params.get(name) != b.params.get(name)}
+    added = {"order": 1}  # the value a run from before a parameter existed ran with
+    values = {run: {**added, **run.params} for run in (a, b)}
+    return {name: (values[a].get(name), values[b].get(name)) for name in names if values[a].get(name) != values[b].get(name)}
 
 
 @dataclass
 class Comparison:
     """Two runs' distances at their common times. `reference` is the run whose meshes carry the
-    integrals and whose norms the relative figures use: the one with more nodes, else the one with
-    more steps, else b."""
+    integrals and whose norms the relative figures use: the one with more displacement nodes, else
+    the one of the higher degree, else the one with more steps, else b."""
     a: Result
     b: Result
     reference: str                       # "a" or "b"
-    nested: bool                         # the other run's meshes nest in the reference's: exact figures
+    nested: bool                         # the other run's meshes nest in the reference's, its degree not above: exact
     rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta,
     #                                                 interpolated ("A", "B": whose state is interpolated in time; "")
     parameters: dict[str, tuple] = field(default_factory=dict)
@@ -263,7 +266,8 @@ class Comparison:
                   f"{mesh['nodes'][1]} nodes, {mesh['triangles'][1]} triangles (B)" for body, mesh in enumerate(self.meshes, 1)]
         lines.append(f"integrated on the meshes of {self.reference.upper()} ({reference.folder.name}); "
                      + ("the other's meshes nest in them: the figures are exact" if self.nested else
-                        "the other's meshes do not nest in them: its interpolation error is part of the figures"))
+                        "the other's meshes do not nest in them, or its degree is higher: its interpolation error "
+                        "is part of the figures"))
         lines.append(f"relative: to the norm of {self.reference.upper()} at that time; in the row max, the largest "
                      "distance over the largest norm")
         interpolated = any(row["interpolated"] for row in self.rows)
@@ -298,10 +302,10 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
         covers_one_body(meshes[a][body], meshes[b][body], (files[a][body], files[b][body]))
     nodes = {run: sum(displacement_nodes(points, triangles, degree(run)) for points, triangles in meshes[run])
              for run in (a, b)}
-    finer = (nodes[a], a.params["N"]) > (nodes[b], b.params["N"])
+    finer = (nodes[a], degree(a), a.params["N"]) > (nodes[b], degree(b), b.params["N"])
     reference = "a" if finer else "b"
     run, ref = (b, a) if finer else (a, b)
-    nested = all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
+    nested = degree(run) <= degree(ref) and all(nests(coarse, fine) for coarse, fine in zip(meshes[run], meshes[ref]))
     with tempfile.TemporaryDirectory() as scratch:
         pairs = paired_states(a, b, Path(scratch))
         ordered = [(second, first) if reference == "a" else (first, second) for first, second, _ in pairs]

@@ -340,9 +340,15 @@ def plot_contact_line(result: Result, target: Path, time: float | None = None, d
     steady_axis(axes[0], opening)
     axes[0].axhline(0, color="grey", lw=0.8)
     axes[0].set_ylabel(f"{'g_h − π1 g0' if initial is not None else 'gap g_h'} ({units['length']})\n(< 0: open)")
-    axes[1].plot(s, line.point_data["pressure"], "o-", ms=3, color="tab:red")
-    steady_axis(axes[1], line.point_data["pressure"])
-    axes[1].set_ylabel(f"contact pressure ({units['stress']})")
+    if "segmentPressure" in line.cell_data:  # degree 2: the nodal tractions alternate, each segment's force does not
+        pressure = line.cell_data["segmentPressure"][0]
+        axes[1].stairs(pressure, segment_edges(line, s), baseline=None, color="tab:red")
+        axes[1].set_ylabel(f"contact pressure ({units['stress']})\nper segment")
+    else:
+        pressure = line.point_data["pressure"]
+        axes[1].plot(s, pressure, "o-", ms=3, color="tab:red")
+        axes[1].set_ylabel(f"contact pressure ({units['stress']})")
+    steady_axis(axes[1], pressure)
     axes[1].set_xlabel(position_label)
     figure.suptitle(f"Contact line at t = {chosen:g} s")
     save(figure, target, dpi=dpi)

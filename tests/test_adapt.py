@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from orchestrate import compare, run
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, InputError
 from orchestrate.mesh import MeshError, body_mesh, cache_key
 
 RECTANGLE = REPO / "meshes" / "rectangle.geo"
@@ -67,6 +67,16 @@ def test_a_size_field_needs_a_geo_that_can_drop_its_transfinite_lines(tmp_path):
 
 
 PILOT = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.scheme": "bdf2", "time.N": 10, "output.images": False}
+
+
+@pytest.mark.unit
+def test_adapt_refuses_a_scene_of_degree_two_before_its_pilot(tmp_path):
+    """The estimate reads degree 1 only: adapt says so at once, running nothing and writing nothing."""
+    from orchestrate.adapt import adapt
+
+    with pytest.raises(InputError, match="space.order = 2: adapt designs its meshes from the error estimate"):
+        adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapted", 0.01, overrides={**PILOT, "space.order": 2})
+    assert not (tmp_path / "adapted").exists()
 
 
 @pytest.mark.runs

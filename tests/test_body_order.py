@@ -1,4 +1,4 @@
-"""A body's forms at the displacements' degree 1 and 2 (docs/model.md §12(a); edp/lib/body.idp)
+"""A body's forms at the displacements' degree 1 and 2 (docs/model.md §13; edp/lib/body.idp)
 against FreeFEM's own assembly and exact facts: the strain points are the triangles' centroids
 (k = 1) or edge middles (k = 2) with weights |T| or |T|/3; the strains of a field of degree k are
 its exact strains there; the force of the viscous stress is FreeFEM's assembled (Aε(u), ε(v)),

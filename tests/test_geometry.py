@@ -7,7 +7,7 @@ import meshio
 import numpy as np
 import pytest
 
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, InputError
 from orchestrate.studies.hertz import contact_line, hertz, measure
 from orchestrate.results import read_state
 from orchestrate.runner import SolverError, run
@@ -176,11 +176,13 @@ def test_body_1_contact_labels_that_do_not_meet_end_to_end_are_refused(tmp_path)
 HERTZ = REPO / "scenes" / "hertz.toml"
 
 
-def test_hertz_at_a_coarse_level_agrees_with_the_analytic_line_contact(tmp_path):
-    """scenes/hertz.toml at n = 8 (results/hertz has the ladder): the half-width and the peak
-    pressure within 3 % of a = 2√(FR/(πE*)), p0 = 2F/(πa) at the computed F, the pressure within
-    5 % of p0 at every node with |x| < 0.9a; no penetration, forces balanced, complementarity."""
-    result = run(HERTZ, tmp_path / "hertz", {"body1.mesh.n": 8, "body2.mesh.n": 8})
+@pytest.mark.parametrize("order", [1, 2])
+def test_hertz_at_a_coarse_level_agrees_with_the_analytic_line_contact(tmp_path, order):
+    """scenes/hertz.toml at n = 8 (results/hertz has the ladder), displacements of degree 1 and 2:
+    the half-width and the peak pressure within 3 % of a = 2√(FR/(πE*)), p0 = 2F/(πa) at the
+    computed F, each segment's pressure within 5 % of p0 from the elliptical law's mean over it
+    where |x| < 0.9a; no penetration, forces balanced, complementarity."""
+    result = run(HERTZ, tmp_path / "hertz", {"body1.mesh.n": 8, "body2.mesh.n": 8, "space.order": order})
     row = measure(result, radius=8.0)
     assert row["F"] > 0
     assert row["errorA"] <= 0.03 and row["errorP0"] <= 0.03 and row["errorProfile"] <= 0.05
@@ -188,9 +190,9 @@ def test_hertz_at_a_coarse_level_agrees_with_the_analytic_line_contact(tmp_path)
     assert h["gapMax"].max() <= p["contactTol"] and h["lambdaMin"].min() >= 0
     assert h["complementarity"].max() <= p["contactTol"] * h["contactForce"].max()
     assert h["forceBalance"].max() <= 1e-10 * h["contactForce"].max()
-    x, pressure, _ = contact_line(result)
+    x, nodal, _, _, _ = contact_line(result)
     outside = np.abs(x) > 1.2 * row["a"]
-    assert np.all(pressure[outside] == 0), "no force where the arc stays apart"
+    assert np.all(nodal[outside] == 0), "no force where the arc stays apart"
     assert np.all(result.fields("contact").point_data["initialGap"] >= 0)
 
 
@@ -227,3 +229,22 @@ def test_the_hertz_study_writes_its_ladder(tmp_path):
         assert loaded["F"] == pytest.approx(pressed["F"], rel=1e-12) and loaded["approach"] == pytest.approx(0.2, rel=0.05)
     assert "meshA" in rows[0] and "meshA" not in rows[1]
     assert {path.name for path in tmp_path.iterdir()} >= {"README.md", "hertz.csv", "pressure.png", "vonmises.png"}
+
+
+def test_the_hertz_study_at_both_degrees_with_a_setting(tmp_path):
+    """--orders runs every case at each degree, its nodes the displacement's (at degree 2 more
+    than the mesh's vertices), --set reaches every run but the force case's boundary conditions,
+    and the README's command reproduces both; a key the study sets per run is refused."""
+    with pytest.raises(InputError, match="--set space.order: the study sets it"):
+        hertz(tmp_path / "refused", levels=1, coarsest=4, settings={"space.order": 2})
+    approach = "-0.1*min(t, 1)"
+    rows = hertz(tmp_path / "both", levels=1, coarsest=4, orders=(1, 2), settings={"body2.boundary.1.value": approach})
+    assert [(row["case"], row["order"]) for row in rows] == [("same", 1), ("dissimilar", 1), ("force", 1),
+                                                             ("same", 2), ("dissimilar", 2), ("force", 2)]
+    same = {row["order"]: row for row in rows if row["case"] == "same"}
+    assert same[2]["nodes1"] > 2 * same[1]["nodes1"]  # the edges' middles too
+    assert all(row["F"] > 0 and 0 < row["errorA"] < 0.05 for row in rows)
+    forced = [row for row in rows if row["case"] == "force"]
+    assert all(row["approach"] == pytest.approx(0.1, rel=0.1) for row in forced)  # pressed by the F of the 0.1 approach
+    readme = (tmp_path / "both" / "README.md").read_text()
+    assert "--orders 1,2 --set 'body2.boundary.1.value=\"-0.1*min(t, 1)\"'" in readme

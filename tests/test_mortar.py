@@ -1,4 +1,4 @@
-"""The mortar projection π1 (docs/model.md §6, §12(a)) against exact facts of L² projections, for
+"""The mortar projection π1 (docs/model.md §6, §13) against exact facts of L² projections, for
 displacements of degree 1 and 2."""
 import pytest
 
@@ -57,7 +57,7 @@ def test_projection_is_the_identity_on_matching_traces(blocks, order):
 @pytest.mark.parametrize("order", [1, 2])
 def test_nodal_weights_are_the_trapezoid_and_simpson_weights(blocks, order):
     """∫ψ_j: (h_left + h_right)/2 at order 1; at order 2 Simpson's, (h_left + h_right)/6 at a
-    segment's end and 2h/3 at its middle, all positive (MODEL §12(a)): also with cut segments."""
+    segment's end and 2h/3 at its middle, all positive (docs/model.md §13): also with cut segments."""
     upper, lower, _, shorter = blocks
     facts, cut = mortar_facts(upper, lower, order=order), mortar_facts(upper, shorter, order=order)
     assert facts["weightError"] < 1e-14 and cut["weightError"] < 1e-14

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from orchestrate.cli.options import add_force_argument
+from orchestrate.arguments import parse_assignments
+from orchestrate.cli.options import add_force_argument, choices_list
 from orchestrate.studies.hertz import NAME, hertz
 
 HELP = "Hertz line contact against the analytic solution, over mesh levels"
@@ -12,6 +13,12 @@ HELP = "Hertz line contact against the analytic solution, over mesh levels"
 def add_arguments(parser) -> None:
     parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
     parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
+    parser.add_argument("--orders", type=choices_list(("1", "2")), default=("1",),
+                        help="the displacements' degrees, comma-separated: each case at each (default 1)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene value for every run, as run --set (e.g. a smaller approach, --set "
+                             "'body2.boundary.1.value=\"-0.05*min(t, 1)\"'); not the meshes' n, the degree or "
+                             "the images, which the study sets")
     parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
     add_force_argument(parser, f"study {NAME}")
 
@@ -19,6 +26,7 @@ def add_arguments(parser) -> None:
 def command(options) -> int:
     import sys
 
-    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force)
+    hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force,
+          orders=tuple(int(order) for order in options.orders), settings=parse_assignments(options.set, "--set"))
     print((Path(options.out) / "README.md").read_text())
     return 0

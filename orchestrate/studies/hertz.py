@@ -4,12 +4,17 @@ For two cylinders' line contact (here a half-cylinder of radius R on a block, pl
 elastic solution with contact force F per unit thickness is
   a = 2√(FR/(πE*)),  p0 = 2F/(πa),  p(x) = p0√(1 − x²/a²),  1/E* = (1 − ν1²)/E1 + (1 − ν2²)/E2.
 Each level runs the scene with both meshes' contact-zone size 1/n; F is the computed contact force
-(history.csv), and from the contact line (contact .vtu: the pressure λ_j/∫ψ_j at the nodes of θ1_h)
+(history.csv), and from the contact line (contact .vtu: the pressure λ_j/∫ψ_j at the nodes of θ1_h,
+so the nodal forces λ_j) each segment's pressure, its force over its length (each node's force
+shared among its segments as its basis function's integral over them: at degree 2 the nodal
+tractions alternate between a segment's ends and its middle, a segment's force does not), and
   a_moment  = 2√(Σ λ_j x_j² / Σ λ_j), the half-width whose second moment the elliptical law has
               (exact for it: ∫p x² / ∫p = a²/4), from all the nodal forces;
   a_closed  = half the closed length of Γ_C (history.csv), resolved to the node spacing only;
-  p0        = the pressure at the first contact point x = 0 (a node of both meshes);
-  profile   = max |p(x_j) − p_analytic(x_j)| / p0_analytic over the nodes with |x_j| < 0.9 a.
+  p0        = the pressure at x = 0 (a node of both meshes): the parabola through the pressures
+              of the four segments nearest it, at their middles;
+  profile   = max |p_e − mean of p_analytic over e| / p0_analytic over the segments e within
+              |x| < 0.9 a.
 Case *force* is load control: the cylinder's top is free to move down (a roller in x only, the
 body held by the contact alone: a floating body) under a uniform pressure F/(2R) whose total is
 the F case *same* needed at that level; its approach (the mean descent of the top) is an output,
@@ -20,6 +25,11 @@ about x⁴/(8R³) (a relative a²/(4R²) ≈ 0.4 % at x = a here) on bodies of f
 own error is measured apart: *mesh a*, *mesh p0* are each level's distance to the finest level's
 value (relative to the analytic), and their observed orders between successive levels are log2
 of the ratio of those distances (each level halves the size).
+Each case runs at every degree of --orders (space.order: continuous P1 or P2 displacements), its
+node counts those of the displacement (at degree 2 the vertices and the edges' middles), its
+nodal forces λ_j = pressure × ∫ψ_j with the degree's weights (Simpson's at degree 2). --set
+changes the scene for every run (e.g. a smaller approach); the *force* case replaces body 2's
+boundary conditions, so a --set of them does not reach it.
 Writes hertz.csv, README.md, pressure.png and vonmises.png into --out (the runs are made in a
 temporary folder and removed).
 """
@@ -28,23 +38,26 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shlex
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, InputError
 from orchestrate.outputs import claim_folder, created, refuse_folder, write_figure, write_text
 from orchestrate.progress import wanted
 from orchestrate.results import cell_field
 from orchestrate.runner import run
+from orchestrate.scene import toml_value
 
 NAME = "hertz"  # the command, as its folders' made-by.json records it
 FILES = ("hertz.csv", "README.md", "pressure.png", "vonmises.png")
 RADIUS = 8.0  # R of meshes/hertz_cylinder.geo, which scenes/hertz.toml keeps
 CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
 LOADED = "force"  # scenes/hertz.toml under a prescribed force instead of a prescribed approach
-COLUMNS = ["case", "n", "nodes1", "nodes2", "F", "a", "aMoment", "aClosed", "p0", "p0Computed",
+STUDY_KEYS = ("body1.mesh.n", "body2.mesh.n", "output.images", "space.order")  # what the study sets per run
+COLUMNS = ["case", "order", "n", "nodes1", "nodes2", "F", "a", "aMoment", "aClosed", "p0", "p0Computed",
            "errorA", "errorAClosed", "errorP0", "errorProfile", "meshA", "meshP0", "orderA", "orderP0",
            "approach", "pressedA", "pressedP0"]
 
@@ -73,62 +86,98 @@ def analytic(force: float, radius: float, modulus: float) -> tuple[float, float]
     return half_width, 2 * force / (math.pi * half_width)
 
 
-def contact_line(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """x of θ1_h's nodes, their pressure and nodal force (pressure × ∫ψ_j), in x order."""
+def nodal_weights(line) -> np.ndarray:
+    """∫ψ_j of θ1_h's nodes from the contact line's cells: half a segment's length to each end
+    (a line, degree 1), or Simpson's sixth to each end and two thirds to the middle (a quadratic
+    edge, degree 2: its ends, then its middle)."""
+    weight = np.zeros(len(line.points))
+    cells = line.cells[0].data
+    length = np.linalg.norm(line.points[cells[:, 1]] - line.points[cells[:, 0]], axis=1)
+    shares = (0.5, 0.5) if cells.shape[1] == 2 else (1 / 6, 1 / 6, 2 / 3)
+    for column, share in enumerate(shares):
+        np.add.at(weight, cells[:, column], share * length)
+    return weight
+
+
+def contact_line(result) -> tuple[np.ndarray, ...]:
+    """x of θ1_h's nodes and their nodal forces (pressure × ∫ψ_j); the x of each segment's middle,
+    its length and its pressure (its force over its length, each node's force shared among its
+    segments as its basis function's integral over them: the trapezoid's, or Simpson's, mean of
+    the nodal pressures); each in x order."""
     line = result.fields("contact")
-    x = line.points[:, 0]
-    order = np.argsort(x)
-    x, pressure = x[order], line.point_data["pressure"][order]
-    spacing = np.diff(x)
-    weight = 0.5 * (np.concatenate([[0.0], spacing]) + np.concatenate([spacing, [0.0]]))
-    return x, pressure, pressure * weight
+    x, pressure = line.points[:, 0], line.point_data["pressure"]
+    cells = line.cells[0].data
+    if cells.shape[1] == 3:
+        mean = (pressure[cells[:, 0]] + 4 * pressure[cells[:, 2]] + pressure[cells[:, 1]]) / 6
+    else:
+        mean = (pressure[cells[:, 0]] + pressure[cells[:, 1]]) / 2
+    middle, length = 0.5 * (x[cells[:, 0]] + x[cells[:, 1]]), np.abs(x[cells[:, 1]] - x[cells[:, 0]])
+    nodes, segments = np.argsort(x), np.argsort(middle)
+    return x[nodes], (pressure * nodal_weights(line))[nodes], middle[segments], length[segments], mean[segments]
+
+
+def segment_means(a: float, p0: float, middle: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """The mean of the elliptical pressure over each segment (Gauss–Legendre, 8 points)."""
+    points, weights = np.polynomial.legendre.leggauss(8)
+    x = middle[:, None] + 0.5 * length[:, None] * points[None, :]
+    return (p0 * np.sqrt(np.clip(1 - (x / a) ** 2, 0, None))) @ weights / 2
 
 
 def measure(result, radius: float) -> dict:
     params, history = result.params, result.history
     force = float(history["contactForce"][-1])
     a, p0 = analytic(force, radius, effective_modulus(params))
-    x, pressure, nodal = contact_line(result)
+    x, nodal, middle, length, pressure = contact_line(result)
     a_moment = 2 * math.sqrt(float(np.sum(nodal * x ** 2) / np.sum(nodal)))
     a_closed = float(history["contactLength"][-1]) / 2
-    p0_computed = float(pressure[np.argmin(np.abs(x))])
-    inside = np.abs(x) < 0.9 * a
-    profile = float(np.max(np.abs(pressure[inside] - p0 * np.sqrt(1 - (x[inside] / a) ** 2))) / p0)
+    nearest = np.argsort(np.abs(middle))[:4]
+    p0_computed = float(np.polyval(np.polyfit(middle[nearest], pressure[nearest], 2), 0.0))
+    inside = np.abs(middle) + length / 2 < 0.9 * a
+    profile = float(np.max(np.abs(pressure[inside] - segment_means(a, p0, middle[inside], length[inside]))) / p0)
     return {"F": force, "a": a, "aMoment": a_moment, "aClosed": a_closed, "p0": p0, "p0Computed": p0_computed,
             "errorA": abs(a_moment - a) / a, "errorAClosed": abs(a_closed - a) / a,
             "errorP0": abs(p0_computed - p0) / p0, "errorProfile": profile}
 
 
 def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | str = "auto",
-          force: bool = False) -> list[dict]:
-    """The cases over the mesh levels, into hertz.csv, README.md and the figures in `out` (a new
-    folder, or with `force` one this study wrote: outputs.py); progress: each run's bar, True,
-    False or "auto" (where one can be seen: progress.py)."""
+          force: bool = False, orders: tuple[int, ...] = (1,), settings: dict | None = None) -> list[dict]:
+    """The cases over the mesh levels at each degree of `orders`, into hertz.csv, README.md and the
+    figures in `out` (a new folder, or with `force` one this study wrote: outputs.py); settings:
+    scene values for every run (dotted keys, as run's overrides; not those the study sets);
+    progress: each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
     shown = wanted(progress)
     out = Path(out)
+    settings = settings or {}
+    taken = [key for key in settings if key in STUDY_KEYS]
+    if taken:
+        raise InputError(f"--set {taken[0]}: the study sets it for each run (--levels, --coarsest and --orders give the "
+                         "meshes and degrees; no images)")
     refuse_folder(out, f"study {NAME}", force)  # now, not after the runs
     rows, finest = [], {}
     with tempfile.TemporaryDirectory(prefix="hertz-") as scratch:
-        for case, overrides in CASES.items():
-            for level in range(levels):
-                n = coarsest * 2 ** level
-                folder = Path(scratch) / f"{case}-n{n}"
-                result = run(REPO / "scenes" / "hertz.toml", folder,
-                             {**overrides, "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False}, progress=shown)
-                rows.append({"case": case, "n": n, **measure(result, RADIUS), **node_counts(result)})
-                finest[case] = (rows[-1], result)
-            mesh_errors([row for row in rows if row["case"] == case])
-        for pressed in [row for row in rows if row["case"] == "same"]:
-            n = pressed["n"]
-            result = run(REPO / "scenes" / "hertz.toml", Path(scratch) / f"{LOADED}-n{n}",
-                         {**force_controlled(pressed["F"]), "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False},
-                         progress=shown)
-            row = {"case": LOADED, "n": n, **measure(result, RADIUS), **node_counts(result), "approach": approach(result)}
-            row["pressedA"] = abs(row["aMoment"] - pressed["aMoment"]) / pressed["aMoment"]
-            row["pressedP0"] = abs(row["p0Computed"] - pressed["p0Computed"]) / pressed["p0Computed"]
-            rows.append(row)
-        mesh_errors([row for row in rows if row["case"] == LOADED])
-        write(claim_folder(out, f"study {NAME}", FILES, force), rows, finest, levels, coarsest)
+        for order in orders:
+            def level_run(name: str, n: int, overrides: dict):
+                return run(REPO / "scenes" / "hertz.toml", Path(scratch) / f"{name}-P{order}-n{n}",
+                           {**overrides, "body1.mesh.n": n, "body2.mesh.n": n, "output.images": False,
+                            "space.order": order}, progress=shown)
+
+            for case, overrides in CASES.items():
+                for level in range(levels):
+                    n = coarsest * 2 ** level
+                    result = level_run(case, n, {**settings, **overrides})
+                    rows.append({"case": case, "order": order, "n": n, **measure(result, RADIUS), **node_counts(result)})
+                    finest[f"{case}, P{order}"] = (rows[-1], result)
+                mesh_errors([row for row in rows if (row["case"], row["order"]) == (case, order)])
+            kept = {key: value for key, value in settings.items() if not key.startswith("body2.boundary")}
+            for pressed in [row for row in rows if (row["case"], row["order"]) == ("same", order)]:
+                result = level_run(LOADED, pressed["n"], {**kept, **force_controlled(pressed["F"])})
+                row = {"case": LOADED, "order": order, "n": pressed["n"], **measure(result, RADIUS), **node_counts(result),
+                       "approach": approach(result)}
+                row["pressedA"] = abs(row["aMoment"] - pressed["aMoment"]) / pressed["aMoment"]
+                row["pressedP0"] = abs(row["p0Computed"] - pressed["p0Computed"]) / pressed["p0Computed"]
+                rows.append(row)
+            mesh_errors([row for row in rows if (row["case"], row["order"]) == (LOADED, order)])
+        write(claim_folder(out, f"study {NAME}", FILES, force), rows, finest, levels, coarsest, orders, settings)
     return rows
 
 
@@ -144,43 +193,54 @@ def mesh_errors(ladder: list[dict]) -> None:
 
 
 def node_counts(result) -> dict:
+    """The displacement's nodes per body (run.json: at degree 2 the vertices and the edges' middles)."""
     counts = json.loads((result.folder / "run.json").read_text())
-    return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"]}
+    return {f"nodes{body}": counts.get(f"displacementNodes{body}", counts[f"nodes{body}"]) for body in (1, 2)}
 
 
-def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int) -> None:
-    """The table, the report and the figures; `finest` maps each case to its finest (row, result)."""
+def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int, orders: tuple[int, ...] = (1,),
+          settings: dict | None = None) -> None:
+    """The table, the report and the figures; `finest` maps each case and degree to its finest
+    (row, result)."""
     with created(out / "hertz.csv", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=COLUMNS, restval="")
         writer.writeheader()
         writer.writerows(rows)
     plot_pressure(out / "pressure.png", finest)
-    plot_von_mises(out / "vonmises.png", finest["same"][1])
-    write_text(out / "README.md", report(rows, levels, coarsest))
+    plot_von_mises(out / "vonmises.png", finest[f"same, P{orders[-1]}"][1])
+    write_text(out / "README.md", report(rows, levels, coarsest, orders, settings or {}))
 
 
-def report(rows: list[dict], levels: int, coarsest: int) -> str:
+def reproduce_line(levels: int, coarsest: int, orders: tuple[int, ...], settings: dict) -> str:
+    line = f"python -m orchestrate study {NAME} --levels {levels} --coarsest {coarsest}"
+    if orders != (1,):
+        line += " --orders " + ",".join(map(str, orders))
+    return line + "".join(f" --set {shlex.quote(f'{key}={toml_value(value)}')}" for key, value in settings.items())
+
+
+def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...] = (1,), settings: dict | None = None) -> str:
     def cell(row, key, digits=4):
         value = row.get(key, "")
         return "" if value == "" else f"{value:.{digits}g}"
 
     lines = ["# Hertz line contact against the analytic solution", "",
              "Reproduce (from the repository root):", "", "```sh",
-             f"python -m orchestrate study hertz --levels {levels} --coarsest {coarsest}", "```", "",
+             reproduce_line(levels, coarsest, orders, settings or {}), "```", "",
              "```text", (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "```", "",
              "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
              "cylinder E = 600, ν = 0.2 (η = 3, the same relaxation time); *force* is *same* under the force "
-             "*same* needed (its approach 0.2 there), the cylinder held by the contact alone.", "",
-             "| case | n | nodes (block, cylinder) | F | a | a (moment) | error a | a (closed) | error | p0 | "
+             "*same* needed (its approach 0.2 there), the cylinder held by the contact alone. *P1*, *P2*: the "
+             "displacements' degree (space.order); nodes are the displacement's.", "",
+             "| case | degree | n | nodes (block, cylinder) | F | a | a (moment) | error a | a (closed) | error | p0 | "
              "p0 computed | error p0 | profile error | mesh a | mesh p0 | order a | order p0 | approach | "
              "vs pressed a | vs pressed p0 |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def percent(row, key):
         return f"{100 * row[key]:.3f} %" if key in row else ""
 
     for row in rows:
-        lines.append(f"| {row['case']} | {row['n']} | {row['nodes1']}, {row['nodes2']} | {cell(row, 'F')} | "
+        lines.append(f"| {row['case']} | P{row['order']} | {row['n']} | {row['nodes1']}, {row['nodes2']} | {cell(row, 'F')} | "
                      f"{cell(row, 'a')} | {cell(row, 'aMoment')} | {percent(row, 'errorA')} | "
                      f"{cell(row, 'aClosed')} | {percent(row, 'errorAClosed')} | {cell(row, 'p0')} | "
                      f"{cell(row, 'p0Computed')} | {percent(row, 'errorP0')} | {percent(row, 'errorProfile')} | "
@@ -195,20 +255,31 @@ def plot_pressure(path: Path, finest: dict) -> None:
     import matplotlib.pyplot as plt
 
     figure, axis = plt.subplots(figsize=(6.4, 4.0), constrained_layout=True)
-    for (case, (row, result)), colour in zip(finest.items(), ("tab:blue", "tab:orange")):
-        x, pressure, _ = contact_line(result)
-        n, a, p0 = row["n"], row["a"], row["p0"]
+    colours = {}  # one per case, whatever its degree; P1 hollow circles, P2 dots
+    for case, (row, result) in finest.items():
+        _, _, x, _, pressure = contact_line(result)  # each segment's pressure at its middle
+        n, a, p0, degree = row["n"], row["a"], row["p0"], row.get("order", 1)
+        colour = colours.setdefault(case.split(",")[0], f"C{len(colours)}")
         shown = np.abs(x) < 1.6 * a
         prefix = f"{case}: " if case else ""
-        axis.plot(x[shown], pressure[shown], "o", ms=3, color=colour, label=f"{prefix}computed (n = {n})")
-        curve = np.linspace(-a, a, 401)
-        axis.plot(curve, p0 * np.sqrt(1 - (curve / a) ** 2), "-", color=colour, lw=1, label=f"{prefix}Hertz, F = {row['F']:.3g}")
+        style = {"marker": "o", "ms": 6, "mfc": "none"} if degree == 1 else {"marker": ".", "ms": 5}
+        axis.plot(x[shown], pressure[shown], ls="none", color=colour, label=f"{prefix}per segment (n = {n})", **style)
+        if degree == finest_degree(finest, case):
+            curve = np.linspace(-a, a, 401)
+            axis.plot(curve, p0 * np.sqrt(1 - (curve / a) ** 2), "-", color=colour, lw=1,
+                      label=f"{case.split(',')[0] + ': ' if case else ''}Hertz, F = {row['F']:.3g}")
     axis.set_xlabel("x (m)")
-    axis.set_ylabel("contact pressure (Pa)")
+    axis.set_ylabel("contact pressure (N/m²)")
     axis.legend(fontsize=8)
     axis.grid(alpha=0.3)
     write_figure(figure, path, dpi=150)
     plt.close(figure)
+
+
+def finest_degree(finest: dict, case: str) -> int:
+    """The highest degree `finest` holds of the case `case` names ("same, P2" → "same"): the one
+    whose analytic curve is drawn (the degrees' forces differ by less than the line's width)."""
+    return max(row.get("order", 1) for key, (row, _) in finest.items() if key.split(",")[0] == case.split(",")[0])
 
 
 def plot_von_mises(path: Path, result) -> None:
@@ -229,7 +300,7 @@ def plot_von_mises(path: Path, result) -> None:
     axis.set_aspect("equal")
     axis.set_xlabel("x (m)")
     axis.set_ylabel("y (m)")
-    figure.colorbar(shading, ax=axis, label="von Mises stress, plane strain (Pa)")
+    figure.colorbar(shading, ax=axis, label="von Mises stress, plane strain (N/m²)")
     write_figure(figure, path, dpi=150)
     plt.close(figure)
 

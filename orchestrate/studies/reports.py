@@ -44,7 +44,9 @@ def convergence_report(table: list[dict], observed: dict[str, dict], command: st
              "an error of its own, so rates against the reference can come out high at the fine end; distances "
              "between successive levels decay at the true rate. Both are given, over the finest three levels "
              "measured. Theorem 2.1 of the seed predicts at least h^{3/4} in space and k in time for the paper's "
-             "scheme; the orders of semi-implicit (1) and bdf2 (2) are expected (docs/model.md §9), not proved. A level "
+             "scheme with P1 displacements (with space.order = 2 in the command above, P2: the solution's "
+             "singularities, at the corners and where the contact ends, bound its rate as well); the orders of "
+             "semi-implicit (1) and bdf2 (2) are expected (docs/model.md §9), not proved. A level "
              "that did not run says why (refused: its step exceeds a bound of an explicit term; stopped: it broke "
              "an invariant).", ""]
     for ladder in studied:
