@@ -9,8 +9,8 @@ with more displacement nodes, then the higher degree, then more steps) and integ
 meshes; the figures are exact when the meshes are nested (every triangle of the other's mesh is a
 union of triangles of the reference's: the same mesh, or the structured family under n → 2n) and
 the other's displacements are of a degree not above the reference's (P1 in P2, not P2 in P1),
-otherwise the interpolation error of the other run is part of them, and the report says which. The two runs must cover the same bodies: their meshes may differ, their domains may
-not.
+otherwise the interpolation error of the other run is part of them, and the report says which.
+The two runs must cover the same bodies: their meshes may differ, their domains may not.
 
 The histories (history.csv) of both runs are drawn over each other in history.png of the
 comparison folder, next to comparison.csv (one row per time): a new folder, or with
