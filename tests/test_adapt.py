@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from orchestrate import compare, run
-from orchestrate.freefem import REPO, InputError
+from orchestrate.freefem import REPO
+from orchestrate.manifest import facts
 from orchestrate.mesh import MeshError, body_mesh, cache_key
 
 RECTANGLE = REPO / "meshes" / "rectangle.geo"
@@ -69,16 +70,6 @@ def test_a_size_field_needs_a_geo_that_can_drop_its_transfinite_lines(tmp_path):
 PILOT = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.scheme": "bdf2", "time.N": 10, "output.images": False}
 
 
-@pytest.mark.unit
-def test_adapt_refuses_a_scene_of_degree_two_before_its_pilot(tmp_path):
-    """The estimate reads degree 1 only: adapt says so at once, running nothing and writing nothing."""
-    from orchestrate.adapt import adapt
-
-    with pytest.raises(InputError, match="space.order = 2: adapt designs its meshes from the error estimate"):
-        adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapted", 0.01, overrides={**PILOT, "space.order": 2})
-    assert not (tmp_path / "adapted").exists()
-
-
 @pytest.mark.runs
 def test_the_adapt_loop_reaches_its_target_with_fewer_nodes_than_a_uniform_mesh(tmp_path):
     from orchestrate.adapt import adapt
@@ -97,6 +88,25 @@ def test_the_adapt_loop_reaches_its_target_with_fewer_nodes_than_a_uniform_mesh(
     nodes = rows[-1]["nodes1"] + rows[-1]["nodes2"]
     assert nodes < 625 + 1089  # uniform n = 24: 25² + 33² nodes
     assert compare(adapted, fine).rows[-1]["errorV"] < 0.8 * compare(uniform, fine).rows[-1]["errorV"]
+
+
+@pytest.mark.runs
+def test_the_adapt_loop_at_degree_two_spends_fewer_nodes_than_the_uniform_mesh_for_less_error(tmp_path):
+    """At degree 2 (the estimate's recovery into P2, its sizes for η_T ~ h³): the loop reaches its
+    target, and its last design is closer to a fine P2 run than the uniform P2 mesh n = 24, with
+    fewer displacement nodes."""
+    from orchestrate.adapt import adapt
+    from orchestrate.results import load_result
+
+    two = {**PILOT, "space.order": 2}
+    rows = adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapt", 0.005, overrides=two, progress=False)
+    assert rows[-1]["relative"] <= 0.005 and all(later["relative"] < earlier["relative"] for earlier, later in zip(rows, rows[1:]))
+    fine = run(REPO / "scenes" / "paper.toml", tmp_path / "n96", {**two, "body1.mesh.n": 96, "body2.mesh.n": 128})
+    uniform = run(REPO / "scenes" / "paper.toml", tmp_path / "n24", {**two, "body1.mesh.n": 24, "body2.mesh.n": 32})
+    adapted = load_result(tmp_path / "adapt" / rows[-1]["folder"])
+    nodes = {result: sum(facts(result.folder)[f"displacementNodes{body}"] for body in (1, 2)) for result in (adapted, uniform)}
+    assert nodes[adapted] < nodes[uniform]
+    assert compare(adapted, fine).rows[-1]["errorV"] < compare(uniform, fine).rows[-1]["errorV"]
 
 
 @pytest.mark.runs
@@ -133,3 +143,17 @@ def test_the_adapted_family_s_rates_are_the_slopes_of_its_designs():
     assert [r["nodes"] for r in used] == [2000, 8000]
     assert adapted_rates(used) == pytest.approx({"‖u − u_ref‖_V": 0.5, "‖ζ − ζ_ref‖_L2": 1.0,
                                                  "‖β − β_ref‖_L2(Γ_C)": 0.25})
+
+
+@pytest.mark.unit
+def test_the_adaptivity_report_of_degree_two_gives_its_command_and_its_pilot():
+    """`study adaptivity --order 2` runs its own targets from a coarser pilot: its README says so,
+    in the command that reproduces it and in the adapt command of every loop."""
+    from orchestrate.studies.adaptivity import FULL_ORDER2, SIZES, report
+
+    assert SIZES[2] is FULL_ORDER2 and FULL_ORDER2.pilot == (12, 16) and max(FULL_ORDER2.targets) < 0.01
+    rows = [{"target": 0.005, "cycle": 0, "nodes": 1714, "estimate": 0.0136, "error": 0.023, "effectivity": 0.59,
+             "errorZeta": 1e-6, "errorBeta": 1e-6, "seconds": 0.3, "loopSeconds": 1.2}]
+    text = report(rows, FULL_ORDER2, 2)
+    assert "python -m orchestrate study adaptivity --order 2\n" in text
+    assert "--set space.order=2 --set body1.mesh.n=12 --set body2.mesh.n=16` from the uniform pilot" in text
