@@ -1,7 +1,7 @@
 """A run's space error estimated from its own states: python -m orchestrate estimate RUN.
 
-edp/tools/estimate.edp recovers each body's strains by the Zienkiewicz–Zhu projection (the P0
-strains of u_h projected in L² onto continuous P1) and takes η = ‖ε(u_h) − r‖ over both bodies,
+edp/tools/estimate.edp recovers each body's strains by the Zienkiewicz–Zhu projection (the strains
+of u_h projected in L² onto continuous Pk, k the run's degree) and takes η = ‖ε(u_h) − r‖ over both bodies,
 in ‖·‖_V's product, at every time the run saved its state (output.fields "state"). η estimates
 ‖u − u_h‖_V, the space error alone (the time error is the scheme's: compare N and 2N). It is
 exact (0) for a uniform strain, and on the paper's scene it is 0.84–0.89 of the distance to a run

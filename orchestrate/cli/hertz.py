@@ -19,13 +19,15 @@ def add_arguments(parser) -> None:
                         help="a scene value for every run, as run --set (e.g. a smaller approach, --set "
                              "'body2.boundary.1.value=\"-0.05*min(t, 1)\"'); not the meshes' n, the degree or "
                              "the images, which the study sets")
-    parser.add_argument("--out", default="results/hertz", help="output folder (default results/hertz)")
+    parser.add_argument("--out", default=None, help="output folder (default results/hertz, results/hertz-order with "
+                                                    "degree 2 among --orders)")
     add_force_argument(parser, f"study {NAME}")
 
 
 def command(options) -> int:
     import sys
 
+    options.out = options.out or ("results/hertz-order" if "2" in options.orders else "results/hertz")
     hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force,
           orders=tuple(int(order) for order in options.orders), settings=parse_assignments(options.set, "--set"))
     print((Path(options.out) / "README.md").read_text())

@@ -11,8 +11,8 @@ tractions alternate between a segment's ends and its middle, a segment's force d
   a_moment  = 2√(Σ λ_j x_j² / Σ λ_j), the half-width whose second moment the elliptical law has
               (exact for it: ∫p x² / ∫p = a²/4), from all the nodal forces;
   a_closed  = half the closed length of Γ_C (history.csv), resolved to the node spacing only;
-  p0        = the pressure at x = 0 (a node of both meshes): the parabola through the pressures
-              of the four segments nearest it, at their middles;
+  p0        = the pressure at x = 0 (a node of both meshes): c0 of the parabola c0 + c1 x + c2 x²
+              whose means over the four segments nearest it fit their pressures (least squares);
   profile   = max |p_e − mean of p_analytic over e| / p0_analytic over the segments e within
               |x| < 0.9 a.
 Case *force* is load control: the cylinder's top is free to move down (a roller in x only, the
@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrate.freefem import REPO, InputError
+from orchestrate.manifest import displacement_nodes
 from orchestrate.outputs import claim_folder, created, refuse_folder, write_figure, write_text
 from orchestrate.progress import wanted
 from orchestrate.results import cell_field
@@ -130,8 +131,12 @@ def measure(result, radius: float) -> dict:
     x, nodal, middle, length, pressure = contact_line(result)
     a_moment = 2 * math.sqrt(float(np.sum(nodal * x ** 2) / np.sum(nodal)))
     a_closed = float(history["contactLength"][-1]) / 2
-    nearest = np.argsort(np.abs(middle))[:4]
-    p0_computed = float(np.polyval(np.polyfit(middle[nearest], pressure[nearest], 2), 0.0))
+    # p ≈ c0 + c1 x + c2 x² near x = 0, whose mean over a segment of middle m and length L is
+    # c0 + c1 m + c2 (m² + L²/12): fitted to the four segments nearest x = 0, p0 = c0
+    near = np.argsort(np.abs(middle))[:4]
+    m, L = middle[near], length[near]
+    p0_computed = float(np.linalg.lstsq(np.column_stack([np.ones(4), m, m ** 2 + L ** 2 / 12]), pressure[near],
+                                        rcond=None)[0][0])
     inside = np.abs(middle) + length / 2 < 0.9 * a
     profile = float(np.max(np.abs(pressure[inside] - segment_means(a, p0, middle[inside], length[inside]))) / p0)
     return {"F": force, "a": a, "aMoment": a_moment, "aClosed": a_closed, "p0": p0, "p0Computed": p0_computed,
@@ -195,7 +200,7 @@ def mesh_errors(ladder: list[dict]) -> None:
 def node_counts(result) -> dict:
     """The displacement's nodes per body (run.json: at degree 2 the vertices and the edges' middles)."""
     counts = json.loads((result.folder / "run.json").read_text())
-    return {f"nodes{body}": counts.get(f"displacementNodes{body}", counts[f"nodes{body}"]) for body in (1, 2)}
+    return {f"nodes{body}": displacement_nodes(counts, str(body)) for body in (1, 2)}
 
 
 def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int, orders: tuple[int, ...] = (1,),
@@ -229,7 +234,8 @@ def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...]
              "```text", (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "```", "",
              "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
              "cylinder E = 600, ν = 0.2 (η = 3, the same relaxation time); *force* is *same* under the force "
-             "*same* needed (its approach 0.2 there), the cylinder held by the contact alone. *P1*, *P2*: the "
+             "*same* needed (its approach the scene's: 0.2 unless --set changed it), the cylinder held by the contact "
+             "alone. *P1*, *P2*: the "
              "displacements' degree (space.order); nodes are the displacement's.", "",
              "| case | degree | n | nodes (block, cylinder) | F | a | a (moment) | error a | a (closed) | error | p0 | "
              "p0 computed | error p0 | profile error | mesh a | mesh p0 | order a | order p0 | approach | "
