@@ -169,7 +169,7 @@ def triangulation(path: Path):
     return mesh.points[:, :2], mesh.cells_dict["triangle"]
 
 
-def displacement_nodes(points: np.ndarray, triangles: np.ndarray, order: int) -> int:
+def nodes_of_degree(points: np.ndarray, triangles: np.ndarray, order: int) -> int:
     """The nodes of a displacement of degree `order` on a mesh: its vertices, and at degree 2 its
     edges' middles."""
     if order == 1:
@@ -300,7 +300,7 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
     for body in (0, 1):
         covers_one_body(meshes[a][body], meshes[b][body], (files[a][body], files[b][body]))
-    nodes = {run: sum(displacement_nodes(points, triangles, degree(run)) for points, triangles in meshes[run])
+    nodes = {run: sum(nodes_of_degree(points, triangles, degree(run)) for points, triangles in meshes[run])
              for run in (a, b)}
     finer = (nodes[a], degree(a), a.params["N"]) > (nodes[b], degree(b), b.params["N"])
     reference = "a" if finer else "b"
