@@ -243,7 +243,8 @@ class Comparison:
     rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta,
     #                                                 interpolated ("A", "B": whose state is interpolated in time; "")
     parameters: dict[str, tuple] = field(default_factory=dict)
-    meshes: list[dict] = field(default_factory=list)  # per body: nodes and triangles of a and b, same (one mesh)
+    meshes: list[dict] = field(default_factory=list)  # per body: nodes, triangles and displacement nodes of a and
+    #                                                   b, same (one mesh)
 
     def maximum(self, quantity: str, common: bool = False) -> float:
         """The largest distance over the compared times (Theorem 2.1's norm of the seed: max in time),
@@ -262,8 +263,8 @@ class Comparison:
         lines = [f"A: {self.a.folder}", f"B: {self.b.folder}"]
         lines += [f"  {name}: {value_a} (A), {value_b} (B)" for name, (value_a, value_b) in self.parameters.items()]
         lines += [f"  body {body} mesh: " + ("the same, " if mesh["same"] else "") +
-                  f"{mesh['nodes'][0]} nodes, {mesh['triangles'][0]} triangles (A); "
-                  f"{mesh['nodes'][1]} nodes, {mesh['triangles'][1]} triangles (B)" for body, mesh in enumerate(self.meshes, 1)]
+                  "; ".join(mesh_counts(mesh, run, degree(result)) for run, result in enumerate((self.a, self.b)))
+                  for body, mesh in enumerate(self.meshes, 1)]
         lines.append(f"integrated on the meshes of {self.reference.upper()} ({reference.folder.name}); "
                      + ("the other's meshes nest in them: the figures are exact" if self.nested else
                         "the other's meshes do not nest in them, or its degree is higher: its interpolation error "
@@ -286,6 +287,13 @@ class Comparison:
             cells = [f"{self.maximum(q, True):12.4e} {self.relative(q, True):10.3e}" for q in QUANTITIES]
             lines.append(f"{'max, common':>14} " + "  ".join(cells))
         return "\n".join(lines)
+
+
+def mesh_counts(mesh: dict, run: int, order: int) -> str:
+    """A run's mesh of a body in the report: its nodes and triangles, and at degree 2 the nodes of
+    its displacement (which choose the reference)."""
+    own = f", {mesh['displacementNodes'][run]} nodes of its P2 displacement" if order == 2 else ""
+    return f"{mesh['nodes'][run]} nodes, {mesh['triangles'][run]} triangles{own} ({'AB'[run]})"
 
 
 def ratio(distance: float, norm: float) -> float:
@@ -312,13 +320,16 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
         rows = pair_distances(run, ref, ordered)
     for row, (_, _, interpolated) in zip(rows, pairs):
         row["interpolated"] = interpolated
-    return Comparison(a, b, reference, nested, rows, differing_parameters(a, b), mesh_differences(meshes[a], meshes[b]))
+    return Comparison(a, b, reference, nested, rows, differing_parameters(a, b),
+                      mesh_differences(meshes[a], meshes[b], (degree(a), degree(b))))
 
 
-def mesh_differences(first: list, second: list) -> list[dict]:
-    """Per body, the node and triangle counts of two runs' meshes and whether they are one mesh
-    (the same nodes and triangles, in the same order)."""
+def mesh_differences(first: list, second: list, degrees: tuple[int, int]) -> list[dict]:
+    """Per body, the node and triangle counts of two runs' meshes, their displacements' nodes at
+    the runs' degrees, and whether they are one mesh (the same nodes and triangles, in the same
+    order)."""
     return [{"nodes": (len(p), len(q)), "triangles": (len(s), len(t)),
+             "displacementNodes": (nodes_of_degree(p, s, degrees[0]), nodes_of_degree(q, t, degrees[1])),
              "same": p.shape == q.shape and s.shape == t.shape and bool((p == q).all() and (s == t).all())}
             for (p, s), (q, t) in zip(first, second)]
 

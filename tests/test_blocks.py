@@ -359,5 +359,10 @@ def test_compare_takes_the_higher_degree_for_reference_between_equal_node_counts
     for first, second, reference in ((split, blocks_p2, "b"), (blocks_p2, split, "a")):
         comparison = compare(first, second)
         assert comparison.reference == reference and not comparison.nested
+        for body, mesh in enumerate(comparison.meshes, 1):  # the report says why: the nodes of the displacements
+            p1, p2 = (0, 1) if first is split else (1, 0)
+            assert mesh["displacementNodes"][p2] == mesh["displacementNodes"][p1] == mesh["nodes"][p1]
+            assert (f"{mesh['nodes'][p2]} nodes, {mesh['triangles'][p2]} triangles, {mesh['nodes'][p1]} nodes of its "
+                    f"P2 displacement ({'AB'[p2]})") in comparison.report()
         for row in comparison.rows:
             assert row["errorV"] <= 1e-10 * row["normV"]

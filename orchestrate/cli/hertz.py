@@ -4,15 +4,18 @@ from __future__ import annotations
 from pathlib import Path
 
 from orchestrate.arguments import parse_assignments
-from orchestrate.cli.options import add_force_argument, choices_list
+from orchestrate.cli.options import add_force_argument, choices_list, positive
 from orchestrate.studies.hertz import NAME, hertz
 
 HELP = "Hertz line contact against the analytic solution, over mesh levels"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--levels", type=int, default=4, help="mesh levels, n = coarsest·2^l (default 4)")
-    parser.add_argument("--coarsest", type=int, default=8, help="contact-zone elements per unit length at level 0 (default 8)")
+    parser.add_argument("--levels", type=positive, default=4,
+                        help="mesh levels, n = coarsest·2^l (default 4; with two or more, the finest is the "
+                             "reference of the mesh errors)")
+    parser.add_argument("--coarsest", type=positive, default=8,
+                        help="contact-zone elements per unit length at level 0 (default 8)")
     parser.add_argument("--orders", type=choices_list(("1", "2")), default=("1",),
                         help="the displacements' degrees, comma-separated: each case at each (default 1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",

@@ -3,8 +3,8 @@
 `python -m orchestrate adapt` (orchestrate/adapt.py) from the paper's uniform pilot (scenes/paper.toml,
 n = 24; at degree 2, --order 2, n1 = 12, n2 = 16 and lower targets; bdf2 with N = 10, whose time
 error is 1e-5 of ‖u‖_V) at each target; every run of each loop
-is compared with a reference on the graded meshes (scenes/paper_graded.toml, n1 = 384, n2 = 176,
-bdf2 N = 36: the benchmark's, 0.03 % from an independent check there): the true error
+is compared with a reference on the graded meshes (scenes/paper_graded.toml, n1 = 192, n2 = 88,
+P2, bdf2 N = 36: the benchmark's, 0.013 % from its independent check there): the true error
 ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V beside the estimate η/‖u_h‖_V, and their ratio, the effectivity
 index; the errors in ζ and β against the same meshes at the loops' N, and the family's rates.
 Writes adaptivity.csv (one row per run of every loop), README.md and adaptivity.png (body 1's
@@ -43,24 +43,27 @@ class Size:
     shown: float                # the target whose last mesh the figure draws
     accuracy: float             # the reference's own relative error in ‖u‖_V, checked independently
     pilot: tuple[int, int] = (24, 32)  # the uniform pilot's n1, n2 (the scene's own)
+    referenceOrder: int = 1     # the degree of the reference's displacements
+    checked: str = "tests/test_adapt.py"  # where its accuracy was measured
 
 
-# The reference at n1 = 384 is 0.03 % from the benchmark's independent check (results/bench); at
-# n1 = 48 about 1 % (tests/test_adapt.py).
-FULL = Size((0.02, 0.01, 0.005, 0.002), (384, 176), 0.02, 3e-4)
+# The benchmark's reference (graded P2, n1 = 192) is 0.013 % from its independent check (results/bench;
+# the P1 one at n1 = 384 used before is 0.18 % from it, docs/model-choices.md, "Error norms between
+# meshes"); P1 at n1 = 48 is about 1 % (tests/test_adapt.py).
+BENCH_REFERENCE = {"reference": (192, 88), "accuracy": 1.3e-4, "referenceOrder": 2, "checked": "results/bench"}
+FULL = Size((0.02, 0.01, 0.005, 0.002), shown=0.02, pilot=(24, 32), **BENCH_REFERENCE)
 SMALL = Size((0.03,), (48, 22), 0.03, 1e-2)
 # Degree 2: its uniform n = 24 already meets 1 %, and its estimate is about 0.6 of the error: lower
 # targets from a coarser pilot.
-FULL_ORDER2 = Size((0.005, 0.002, 0.001, 0.0005), (384, 176), 0.001, 3e-4, (12, 16))
+FULL_ORDER2 = Size((0.005, 0.002, 0.001, 0.0005), shown=0.001, pilot=(12, 16), **BENCH_REFERENCE)
 SIZES = {1: FULL, 2: FULL_ORDER2}  # the command's, per degree
 RATE_ABOVE = 10  # designs whose error is at least this many times the reference's own give the rates
 
 
 def adaptivity(out: str | Path, size: Size = FULL, order: int = 1, progress: bool | str = "auto",
                force: bool = False) -> list[dict]:
-    """The study at `size`, its adapted runs' displacements of degree `order` (the reference stays
-    the P1 graded one at every degree: at n1 = 384 it is 0.019 % from the finest adapted P2 run
-    measured, docs/model-choices.md, "Order 2")."""
+    """The study at `size`, its adapted runs' displacements of degree `order` (the reference's
+    degree is the size's)."""
     shown = wanted(progress)
     out = Path(out)
     refuse_folder(out, f"study {NAME}", force)
@@ -68,7 +71,7 @@ def adaptivity(out: str | Path, size: Size = FULL, order: int = 1, progress: boo
     with tempfile.TemporaryDirectory(prefix="adaptivity-") as scratch:
         scratch = Path(scratch)
         n1, n2 = size.reference
-        graded = {**SCHEME, "body1.mesh.n": n1, "body2.mesh.n": n2}
+        graded = {**SCHEME, "body1.mesh.n": n1, "body2.mesh.n": n2, "space.order": size.referenceOrder}
         reference = run(REPO / "scenes" / "paper_graded.toml", scratch / "reference", {**graded, "time.N": 36},
                         progress=shown)
         # ζ and β carry a time error at N = 10 far above their space error: they are compared
@@ -109,10 +112,10 @@ def report(rows: list[dict], size: Size, order: int = 1) -> str:
              f"from the uniform pilot n1 = {size.pilot[0]}, n2 = {size.pilot[1]}; *nodes*: the displacement's (at degree 2 the vertices and the edges' "
              "middles); *estimate*: η/‖u_h‖_V at T (edp/tools/estimate.edp, the Zienkiewicz–Zhu "
              "recovery of the strains); *error*: ‖u(T) − u_ref(T)‖_V/‖u_ref(T)‖_V against scenes/paper_graded.toml at "
-             f"n1 = {size.reference[0]}, n2 = {size.reference[1]} (bdf2, N = 36); *effectivity*: estimate/error; "
-             "*seconds*: the run's wall time; *loop*: the whole `adapt`, estimates and meshing included. At "
-             "n1 = 384 the reference is 0.03 % from an independent one (results/bench): below about 0.1 % that is "
-             "part of the error column, and of the effectivity.", "",
+             f"n1 = {size.reference[0]}, n2 = {size.reference[1]}, degree {size.referenceOrder} (bdf2, N = 36); "
+             "*effectivity*: estimate/error; *seconds*: the run's wall time; *loop*: the whole `adapt`, estimates and "
+             f"meshing included. The reference's own error is about {100 * size.accuracy:.3g} % ({size.checked}): "
+             f"below about {1000 * size.accuracy:.2g} % it is part of the error column, and of the effectivity.", "",
              "| target | cycle | nodes | estimate | error | effectivity | run | loop |", "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {row['target']:g} | {row['cycle']} | {row['nodes']} | {100 * row['estimate']:.3f} % | "
               f"{100 * row['error']:.3f} % | {row['effectivity']:.2f} | {row['seconds']:.2f} s | "

@@ -3,11 +3,13 @@
 Variants: every time scheme (euler, the paper's; semi-implicit; bdf2) on each mesh family
 (uniform: the paper's structured meshes, body 1 with n1 = 6·2^ℓ elements per side, body 2 with
 4/3 as many; graded: scenes/paper_graded.toml, graded toward the singular points, n1 = 6·2^ℓ and
-body 2 with 11/24 as many), the active-set contact solver throughout (Bermúdez–Moreno against it:
-tests/test_fast_paths.py); and bdf2 on adapted meshes: `orchestrate adapt` (orchestrate/adapt.py)
-from the paper's uniform pilot (n = 24) at each of ADAPT_TARGETS, its last run timed as every
-other run (the whole loop's wall time beside it, adaptSeconds), at the N of a time error of
-fraction × the target.
+body 2 with 11/24 as many), at each degree of the displacements (P1, P2: space.order), the
+active-set contact solver throughout (Bermúdez–Moreno against it: tests/test_fast_paths.py); and
+bdf2 on adapted meshes: `orchestrate adapt` (orchestrate/adapt.py) from the paper's uniform pilot
+(P1: n1 = 24, n2 = 32; P2: n1 = 12, n2 = 16, the same nodes) at each estimate target of the degree, its last run timed
+as every other run (the whole loop's wall time beside it, adaptSeconds), at the N of a time error
+of fraction × the target. P2 runs one level fewer of each family than P1, two at least: its
+level ℓ has the nodes of P1's level ℓ + 1.
 
 Steps per level, balanced (docs/model-choices.md, "Steps for a target time error"): each scheme's time
 error model comes from the pilots of time.N = "auto" (orchestrate/steps.py) on uniform level 0;
@@ -16,9 +18,10 @@ at fraction·s_{ℓ−1}/4, 1e-4 at level 0: the space error falls by less than 
 error stays below fraction·s_ℓ), and every other scheme takes the N whose estimated time error
 is fraction·s_ℓ (default fraction 1/4).
 
-The reference is the graded mesh two levels finer than the finest measured, the check an
-independent one of the same size: the graded level between them split once (nested in that
-level, so its nodes are not the reference's), both bdf2 with the N of a 1e-6 time error. The check's distance to the
+The reference is the graded mesh two levels finer than the finest measured of the highest degree
+run, at that degree, the check an independent one of the same size: the graded level between them
+split once (nested in that level, so its nodes are not the reference's), both bdf2 with the N of a
+1e-6 time error. The check's distance to the
 reference bounds what the reference's own error can do to the figures; the report says whether
 it is four times below the smallest error reported.
 
@@ -55,8 +58,8 @@ from matplotlib.ticker import FuncFormatter
 
 from orchestrate.adapt import adapt
 from orchestrate.compare import instant_distances
-from orchestrate.freefem import REPO, SolverError, run_script
-from orchestrate.manifest import facts
+from orchestrate.freefem import REPO, InputError, SolverError, run_script
+from orchestrate.manifest import displacement_nodes, facts
 from orchestrate.mesh import forget_whole_files
 from orchestrate.outputs import claim_folder, refuse_folder, write_csv, write_text
 from orchestrate.parameters import ORDER
@@ -71,8 +74,13 @@ NAME = "bench"  # the command, as its folders' made-by.json records it
 
 SCHEMES = tuple(ORDER)
 FAMILIES = {"uniform": REPO / "scenes" / "paper.toml", "graded": REPO / "scenes" / "paper_graded.toml"}
-ADAPTED, ADAPT_TARGETS = "adapted", (0.05, 0.02, 0.01, 0.005)  # the family of meshes adapt designs; its estimates
-MARKERS = {"uniform": "o-", "graded": "s--", ADAPTED: "^-."}
+DEGREES = (1, 2)  # of the displacements (space.order)
+ADAPTED = "adapted"  # the family of meshes adapt designs, and the estimates it designs them for, per degree:
+ADAPT_TARGETS = {1: (0.05, 0.02, 0.01, 0.005), 2: (0.005, 0.002, 0.001, 0.0005)}  # P2's estimate is 0.6 of its error
+PILOT_N = {1: 1, 2: 0.5}  # adapt's pilot: the uniform scene's n times this, so both degrees start from its nodes
+MARKERS = {"uniform": "o", "graded": "s", ADAPTED: "^"}
+LINES = {1: ":", 2: "-"}  # P1 dotted, P2 solid
+LOOP_LINES = {1: (0, (6, 2, 1, 2)), 2: "--"}  # the adapt loops': P1 dash-dotted, P2 dashed
 REFERENCE, CHECK = "reference", "reference check"
 MEASURE = 30  # sets of the unavoidable back-substitutions timed in each run, spread over steps 2 … N
 REPEATS, REPEAT_BELOW = 3, 20.0  # this machine's timings drift by ±20 %: short runs are repeated
@@ -82,6 +90,12 @@ MOST_DOUBLINGS = 6  # of N, for a level whose N an explicit bound refuses
 TARGETS = (1e-2, 2e-3)  # the errors the report reads every curve at, and searches a mesh for
 SEARCH_RUNS = 5  # most runs of the search for the coarsest mesh that reaches a target
 N1_STEP = {"uniform": 2, "graded": 1}  # uniform body 1 has a node at the load jump x = 3: n1 even
+
+
+def degree_level_count(levels: int, degree: int) -> int:
+    """A family's levels at a degree: P2 one fewer than P1 (its level ℓ has the nodes of P1's ℓ + 1),
+    two at least."""
+    return max(2, levels - (degree - 1))
 
 
 def mesh_size(family: str, n1: int) -> dict:
@@ -105,8 +119,14 @@ def mesh_level(family: str, l: int) -> dict:
     return mesh_size(family, level_n1(l))
 
 
-def variant_name(scheme: str, family: str) -> str:
-    return f"{scheme}, {family}"
+def variant_name(scheme: str, family: str, degree: int) -> str:
+    return f"{scheme}, {family}, P{degree}"
+
+
+def split_name(name: str) -> tuple[str, str, int]:
+    """scheme, family and degree of a variant's name."""
+    scheme, family, degree = name.split(", ")
+    return scheme, family, int(degree.removeprefix("P"))
 
 
 def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
@@ -122,7 +142,7 @@ def timed_run(scene: Path, overrides: dict, folder: Path, cache: Path) -> dict:
     columns = counts["contactColumnSeconds"]  # made in the loop, when a node first becomes active
     output = timing["solverOutputCpu"]  # the files, written in the loop
     loop = timing["solverLoopCpu"] - measured - columns - output
-    return {"nodes1": counts["nodes1"], "nodes2": counts["nodes2"], "N": steps,
+    return {"nodes1": displacement_nodes(counts, "1"), "nodes2": displacement_nodes(counts, "2"), "N": steps,
             "startup": solver_wall - (timing["solverTotalCpu"] - measured), "meshing": timing["meshing"],
             "setup": timing["solverSetupCpu"], "columns": columns, "loop": loop,
             "output": output, "wall": timing["meshing"] + solver_wall,
@@ -189,26 +209,28 @@ def error_models(scratch: Path) -> dict[str, dict]:
     return models
 
 
-def references(levels: int, models: dict, scratch: Path) -> list[dict]:
+def references(levels: int, degree: int, models: dict, scratch: Path) -> list[dict]:
+    """The reference and its check at `degree`, above `levels` graded levels measured at it."""
     steps = steps_for(models["bdf2"], REFERENCE_TARGET)[0]
     rows = []
     for name, overrides in ((REFERENCE, mesh_level("graded", levels + 1)),
                             (CHECK, {**mesh_level("graded", levels), "body1.mesh.refine": 1, "body2.mesh.refine": 1})):
         folder = scratch / name.replace(" ", "-")
-        rows.append({"variant": name, "scheme": "bdf2", "family": "graded", "level": "", "folder": folder,
-                     **timed_run(FAMILIES["graded"], {**overrides, "time.scheme": "bdf2", "time.N": steps},
-                                 folder, scratch / "meshes")})
+        rows.append({"variant": name, "scheme": "bdf2", "family": "graded", "degree": degree, "level": "",
+                     "folder": folder,
+                     **timed_run(FAMILIES["graded"], {**overrides, "space.order": degree, "time.scheme": "bdf2",
+                                                      "time.N": steps}, folder, scratch / "meshes")})
     return rows
 
 
-def measured_run(family: str, scheme: str, n1: int, level, target: float, model: dict, reference: Path,
-                 folder: Path, scratch: Path) -> dict:
+def measured_run(family: str, scheme: str, degree: int, n1: int, level, target: float, model: dict,
+                 reference: Path, folder: Path, scratch: Path) -> dict:
     """A bench row: the family's meshes at n1, the N whose estimated time error is `target`."""
     steps, estimated = steps_for(model, target)
-    row = {"variant": variant_name(scheme, family), "scheme": scheme, "family": family, "level": level, "n1": n1,
-           "folder": folder, "timeTarget": target,
-           **stable_run(FAMILIES[family], {**mesh_size(family, n1), "time.scheme": scheme, "time.N": steps},
-                        folder, scratch / "meshes")}
+    row = {"variant": variant_name(scheme, family, degree), "scheme": scheme, "family": family, "degree": degree,
+           "level": level, "n1": n1, "folder": folder, "timeTarget": target,
+           **stable_run(FAMILIES[family], {**mesh_size(family, n1), "space.order": degree, "time.scheme": scheme,
+                                           "time.N": steps}, folder, scratch / "meshes")}
     row["estimatedTimeError"] = estimated * (steps / row["N"]) ** model["orderUsed"]  # N doubled?
     row["errorToReference"] = final_distance(folder, reference)
     return row
@@ -240,8 +262,8 @@ def bracket(runs: list[dict], target: float) -> tuple[dict | None, dict | None]:
     return max(above, key=lambda row: row["n1"], default=None), fine
 
 
-def search(family: str, scheme: str, levels: list[dict], target: float, fraction: float, model: dict,
-           reference: Path, scratch: Path) -> list[dict]:
+def search(family: str, scheme: str, degree: int, levels: list[dict], target: float, fraction: float,
+           model: dict, reference: Path, scratch: Path) -> list[dict]:
     """The coarsest mesh that reaches `target`, between two levels that bracket it: secant steps in
     log(error)–log(n1), every run at the N for a time error of fraction·target, until a run at or
     below the target (at those steps) is one step of n1 above a run above it, or SEARCH_RUNS runs."""
@@ -257,24 +279,26 @@ def search(family: str, scheme: str, levels: list[dict], target: float, fraction
             if fine["level"] == label:
                 break
             n1 = fine["n1"]  # a level run, at its level's steps: run it at the target's
-        folder = scratch / f"{scheme}-{family}" / f"search-{target:g}-n1-{n1}"
-        searched.append(measured_run(family, scheme, n1, label, fraction * target, model, reference, folder, scratch))
+        folder = scratch / f"{scheme}-{family}-P{degree}" / f"search-{target:g}-n1-{n1}"
+        searched.append(measured_run(family, scheme, degree, n1, label, fraction * target, model, reference, folder,
+                                     scratch))
     return searched
 
 
-def search_rows(family: str, levels: list[dict], targets, fraction: float, models: dict, reference: Path,
-                scratch: Path) -> list[dict]:
-    """`search` for every scheme of a family and every target error."""
+def search_rows(family: str, degree: int, levels: list[dict], targets, fraction: float, models: dict,
+                reference: Path, scratch: Path) -> list[dict]:
+    """`search` for every scheme of a family at a degree and every target error."""
     return [row for scheme in SCHEMES for target in targets
-            for row in search(family, scheme, [row for row in levels if row["scheme"] == scheme], target, fraction,
-                              models[scheme], reference, scratch)]
+            for row in search(family, scheme, degree, [row for row in levels if row["scheme"] == scheme], target,
+                              fraction, models[scheme], reference, scratch)]
 
 
 def search_status(rows: list[dict], name: str, target: float) -> str:
     """How the search for `target` ended for a variant, for the report."""
-    if name.split(", ")[1] == ADAPTED:
+    family = split_name(name)[1]
+    if family == ADAPTED:
         return "none: its meshes are designed for targets of the estimate"
-    label, step = search_label(target), N1_STEP[name.split(", ")[1]]
+    label, step = search_label(target), N1_STEP[family]
     levels = [row for row in rows if row["variant"] == name and isinstance(row["level"], int)]
     searched = [row for row in rows if row["variant"] == name and row["level"] == label]
     if not searched:
@@ -287,15 +311,21 @@ def search_status(rows: list[dict], name: str, target: float) -> str:
     return f"open after {len(searched)} runs: n1 = {coarse['n1']} above it, {fine['n1']} at or below"
 
 
-def adapted_rows(targets, fraction: float, model: dict, reference: Path, scratch: Path) -> list[dict]:
-    """bdf2 on the meshes `adapt` designs for each estimate target (from the uniform scene as it is),
+def pilot_size(degree: int) -> dict:
+    """adapt's pilot at a degree: the uniform scene's meshes, at P2 with half its n (the same nodes)."""
+    scene = Scene.load(FAMILIES["uniform"])
+    return {f"body{body}.mesh.n": round(getattr(scene, f"body{body}").mesh.n * PILOT_N[degree]) for body in (1, 2)}
+
+
+def adapted_rows(degree: int, targets, fraction: float, model: dict, reference: Path, scratch: Path) -> list[dict]:
+    """bdf2 on the meshes `adapt` designs for each estimate target (from the uniform scene's pilot),
     the last run of each loop timed as every other run, at the N of a time error of fraction × the
     target."""
     rows = []
     for goal in targets:
         steps, estimated = steps_for(model, fraction * goal)
-        overrides = {"time.scheme": "bdf2", "time.N": steps}
-        loop_folder = scratch / f"bdf2-{ADAPTED}" / f"adapt-{goal:g}"
+        overrides = {**pilot_size(degree), "space.order": degree, "time.scheme": "bdf2", "time.N": steps}
+        loop_folder = scratch / f"bdf2-{ADAPTED}-P{degree}" / f"adapt-{goal:g}"
         start = time.perf_counter()
         loop = adapt(FAMILIES["uniform"], loop_folder, goal, overrides={**overrides, "output.images": False},
                      progress=False)
@@ -303,28 +333,31 @@ def adapted_rows(targets, fraction: float, model: dict, reference: Path, scratch
         last = loop[-1]["cycle"]
         sizes = {f"body{body}.mesh.sizes": str(loop_folder / "sizes" / f"cycle{last}" / f"body{body}.pos")
                  for body in (1, 2) if last > 0}
-        folder = scratch / f"bdf2-{ADAPTED}" / f"target-{goal:g}"
-        row = {"variant": variant_name("bdf2", ADAPTED), "scheme": "bdf2", "family": ADAPTED,
+        folder = scratch / f"bdf2-{ADAPTED}-P{degree}" / f"target-{goal:g}"
+        row = {"variant": variant_name("bdf2", ADAPTED, degree), "scheme": "bdf2", "family": ADAPTED,
+               "degree": degree,
                "level": f"target {100 * goal:g} %", "n1": "", "folder": folder, "timeTarget": fraction * goal,
                "estimatedTimeError": estimated,
                **stable_run(FAMILIES["uniform"], {**overrides, **sizes}, folder, scratch / "meshes"),
                "adaptSeconds": spent, "adaptCycles": last, "adaptTarget": goal,
+               "pilot": ", ".join(f"n{body} = {n}" for body, n in enumerate(pilot_size(degree).values(), 1)),
                "adaptEstimate": loop[-1]["relative"]}
         row["errorToReference"] = final_distance(folder, reference)
         rows.append(row)
     return rows
 
 
-def family_rows(family: str, levels: int, fraction: float, models: dict, reference: Path, scratch: Path) -> list[dict]:
-    """Every scheme at every level of a family, N balanced against the level's space error."""
+def family_rows(family: str, degree: int, levels: int, fraction: float, models: dict, reference: Path,
+                scratch: Path) -> list[dict]:
+    """Every scheme at every level of a family at a degree, N balanced against the level's space error."""
     rows, space = [], []
     for l in range(levels):
         target = FIRST_TARGET if l == 0 else fraction * space[-1] / 4
         for scheme in sorted(SCHEMES, key=lambda s: -ORDER[s]):  # the second order first: it sets the space error
             if ORDER[scheme] == 1:
                 target = fraction * space[-1]
-            row = measured_run(family, scheme, level_n1(l), l, target, models[scheme], reference,
-                               scratch / f"{scheme}-{family}" / f"level{l}", scratch)
+            row = measured_run(family, scheme, degree, level_n1(l), l, target, models[scheme], reference,
+                               scratch / f"{scheme}-{family}-P{degree}" / f"level{l}", scratch)
             if ORDER[scheme] == 2:
                 space.append(row["errorToReference"])
             rows.append(row)
@@ -332,40 +365,53 @@ def family_rows(family: str, levels: int, fraction: float, models: dict, referen
 
 
 def bench(out: str | Path, levels: int = 5, fraction: float = 0.25, uniform_levels: int | None = None,
-          targets=TARGETS, adapt_targets=ADAPT_TARGETS, force: bool = False) -> list[dict]:
-    """`levels` graded levels (the reference two finer) and `uniform_levels` uniform ones (default
-    as many: uniform meshes need one more level for the same error); for each error of `targets`
-    the levels bracket, the search for the coarsest mesh that reaches it; the adapted meshes of
-    each estimate of `adapt_targets`. `out`: a new folder, or with `force` one an earlier bench
-    wrote (outputs.py)."""
+          targets=TARGETS, adapt_targets=ADAPT_TARGETS, degrees=DEGREES, force: bool = False) -> list[dict]:
+    """At each degree of `degrees`: `levels` graded levels and `uniform_levels` uniform ones
+    (default as many: uniform meshes need one more level for the same error) at P1, one fewer of
+    each at P2 (degree_level_count); for each error of `targets` the levels bracket, the search
+    for the coarsest mesh that reaches it; the adapted meshes of each estimate of
+    `adapt_targets[degree]`. The reference: two graded levels above the finest measured at the
+    highest degree. `out`: a new folder, or with `force` one an earlier bench wrote (outputs.py)."""
     counts = {"uniform": uniform_levels or levels, "graded": levels}
+    missing = [degree for degree in degrees if degree not in adapt_targets]
+    if missing:  # now, not after the other degrees' runs
+        raise InputError(f"degree {missing[0]}: no targets of the estimate for its adapted meshes")
     out = Path(out).resolve()
     refuse_folder(out, NAME, force)  # now, not after the runs
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         models = error_models(scratch)
-        reference, check = references(levels, models, scratch)
+        top = max(degrees)
+        reference, check = references(degree_level_count(levels, top), top, models, scratch)
         rows = [reference, check]
-        for family in FAMILIES:
-            levels_run = family_rows(family, counts[family], fraction, models, reference["folder"], scratch)
-            rows += levels_run + search_rows(family, levels_run, targets, fraction, models, reference["folder"],
-                                             scratch)
-        rows += adapted_rows(adapt_targets, fraction, models["bdf2"], reference["folder"], scratch)
+        for degree in degrees:
+            for family in FAMILIES:
+                levels_run = family_rows(family, degree, degree_level_count(counts[family], degree), fraction, models,
+                                         reference["folder"], scratch)
+                rows += levels_run + search_rows(family, degree, levels_run, targets, fraction, models,
+                                                 reference["folder"], scratch)
+            rows += adapted_rows(degree, adapt_targets[degree], fraction, models["bdf2"], reference["folder"],
+                                 scratch)
         check["errorToReference"] = final_distance(check["folder"], reference["folder"])
         for row in rows:
             if row["variant"] not in (REFERENCE, CHECK):
                 row["errorToCheck"] = final_distance(row["folder"], check["folder"])
-        finest = finest_level(rows, variant_name("euler", "uniform"))["folder"]
+        finest = finest_level(rows, variant_name("euler", "uniform", min(degrees)))["folder"]
         (scratch / "solvers").mkdir()
         for body in (1, 2):
             (scratch / "solvers" / f"mesh{body}.msh").write_bytes((finest / f"body{body}.msh").read_bytes())
         solvers = solver_table(scratch / "solvers", load_result(finest).params["N"])
     rows = rows[2:] + rows[:2]
     flags = (f"--levels {levels} --uniform-levels {counts['uniform']} --time-fraction {fraction:g} "
-             f"--targets {','.join(f'{100 * target:g}' for target in targets)} "
-             f"--adapt-targets {','.join(f'{100 * target:g}' for target in adapt_targets)}")
+             f"--targets {percent_list(targets)} --degrees {','.join(str(degree) for degree in degrees)}"
+             + "".join(f" --adapt-targets{'' if degree == 1 else '-p2'} {percent_list(adapt_targets[degree])}"
+                       for degree in degrees))
     write(claim_folder(out, NAME, FILES, force), rows, solvers, models, flags, fraction, targets)
     return rows
+
+
+def percent_list(fractions) -> str:
+    return ",".join(f"{100 * fraction:g}" for fraction in fractions)
 
 
 def finest_level(rows: list[dict], name: str) -> dict:
@@ -412,7 +458,7 @@ def variants(rows: list[dict]) -> list[str]:
 
 
 FILES = ("bench.csv", "README.md", "workprecision.png")
-COLUMNS = ["variant", "scheme", "family", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
+COLUMNS = ["variant", "scheme", "family", "degree", "level", "n1", "nodes1", "nodes2", "N", "timeTarget", "estimatedTimeError", "wall",
            "startup", "meshing", "setup", "columns", "loop", "output", "firstStep", "overheadRatio", "laterOverheadRatio",
            "laterOverheadLow", "laterOverheadHigh",
            "setupMemoryMB", "peakMemoryMB", "contactIters", "normV", "errorToReference", "errorToCheck", "adaptSeconds",
@@ -431,19 +477,23 @@ def write(out: Path, rows: list[dict], solvers: list[dict], models: dict, flags:
 
 
 def plot(target: Path, rows: list[dict], targets) -> None:
-    """Wall time against error, one curve per variant (levels and search runs), the target errors
-    dotted; beside it, the time split of each variant's finest level."""
-    figure, (left, right) = pyplot().subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [3, 2]})
+    """Wall time against error, one curve per variant (levels and search runs: colour the scheme,
+    marker the family, line the degree), the target errors dotted; beside it, the time split of
+    each variant's finest level."""
     names = variants(rows)
+    figure, (left, right) = pyplot().subplots(1, 2, figsize=(14, 5.5 + 0.12 * len(names)),
+                                              gridspec_kw={"width_ratios": [3, 2]})
     colours = {scheme: f"C{i}" for i, scheme in enumerate(SCHEMES)}
     for name in names:
-        scheme, family = name.split(", ")
+        scheme, family, degree = split_name(name)
         errors, walls = zip(*curve(rows, name))
-        left.loglog(np.array(errors) * 100, walls, MARKERS[family], color=colours[scheme], label=name)
+        style = dict(color=colours[scheme], marker=MARKERS[family], linestyle=LINES[degree],
+                     markerfacecolor=colours[scheme] if degree > 1 else "none")
+        left.loglog(np.array(errors) * 100, walls, label=name, **style)
         if family == ADAPTED:  # the whole loop that designed them: pilot, estimates, meshing, every cycle
             loops = sorted((row["errorToReference"], row["adaptSeconds"]) for row in rows if row["variant"] == name)
-            left.loglog([100 * e for e, _ in loops], [w for _, w in loops], "^:", color=colours[scheme], alpha=0.5,
-                        label=f"{name}: the whole adapt loop")
+            left.loglog([100 * e for e, _ in loops], [w for _, w in loops], **{**style, "linestyle": LOOP_LINES[degree]},
+                        alpha=0.45, label=f"{name}: the whole adapt loop")
     for error in targets:
         left.axvline(100 * error, color="0.6", linestyle=":", linewidth=1)
         left.annotate(f"target {100 * error:g} %", (100 * error, 0), xycoords=("data", "axes fraction"),
@@ -452,7 +502,7 @@ def plot(target: Path, rows: list[dict], targets) -> None:
     left.invert_xaxis()
     for axis in (left.xaxis, left.yaxis):
         axis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 1, 10: not 10⁰, 10¹
-    log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)")
+    log_axes(left, "relative error of u(T) in the V norm (%)", "wall time of a run (s)", fontsize=7, ncol=2)
     parts = ("startup", "meshing", "setup", "columns", "loop", "output")
     finest = [finest_level(rows, name) for name in names]
     bottom = np.zeros(len(finest))
@@ -460,8 +510,8 @@ def plot(target: Path, rows: list[dict], targets) -> None:
         values = np.array([row[part] for row in finest]).clip(min=0)
         right.barh(range(len(finest)), values, left=bottom, label=part)
         bottom += values
-    right.set_yticks(range(len(finest)), [f"{row['variant']}\n{level_label(row)}, N = {row['N']}" for row in finest],
-                     fontsize=8)
+    right.set_yticks(range(len(finest)), [f"{row['variant']}: {level_label(row)}, N = {row['N']}" for row in finest],
+                     fontsize=7)
     right.invert_yaxis()
     right.set_xlabel("wall time of the finest level (s)")
     right.legend(fontsize=8)

@@ -21,7 +21,8 @@ the F case *same* needed at that level; its approach (the mean descent of the to
 and *vs pressed* is the distance of its a_moment and p0 to those of *same* at the same level.
 The errors are relative to the analytic values at the level's own F. They do not all fall to 0:
 Hertz's law is for a parabolic gap between half-spaces, and a circle's gap exceeds x²/(2R) by
-about x⁴/(8R³) (a relative a²/(4R²) ≈ 0.4 % at x = a here) on bodies of finite size. The mesh's
+about x⁴/(8R³) (a relative a²/(4R²) at x = a: 0.4 % at the scene's approach, 0.2; the report
+gives it for its runs) on bodies of finite size. The mesh's
 own error is measured apart: *mesh a*, *mesh p0* are each level's distance to the finest level's
 value (relative to the analytic), and their observed orders between successive levels are log2
 of the ratio of those distances (each level halves the size).
@@ -232,6 +233,7 @@ def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...]
              "Reproduce (from the repository root):", "", "```sh",
              reproduce_line(levels, coarsest, orders, settings or {}), "```", "",
              "```text", (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "```", "",
+             gap_floor(rows), "",
              "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
              "cylinder E = 600, ν = 0.2 (η = 3, the same relaxation time); *force* is *same* under the force "
              "*same* needed (its approach the scene's: 0.2 unless --set changed it), the cylinder held by the contact "
@@ -255,6 +257,13 @@ def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...]
                      f"{percent(row, 'pressedP0')} |")
     lines += ["", "![pressure](pressure.png)", "", "![von Mises](vonmises.png)", ""]
     return "\n".join(lines)
+
+
+def gap_floor(rows: list[dict]) -> str:
+    """How far a circle's gap is from Hertz's parabola at the edge of these runs' contact."""
+    a = max(row["a"] for row in rows if row["case"] == "same")
+    return (f"In these runs a = {a:.4g} at most (case *same*): a circle's gap exceeds Hertz's parabola by a relative "
+            f"a²/(4R²) = {100 * a * a / (4 * RADIUS ** 2):.3f} % at x = a.")
 
 
 def plot_pressure(path: Path, finest: dict) -> None:

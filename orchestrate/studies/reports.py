@@ -245,11 +245,17 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
     check = next(row for row in rows if row["variant"] == "reference check")
     smallest = min(row["errorToReference"] for row in measured)
     resolved = 4 * check["errorToReference"] <= smallest
+    degrees = sorted({row["degree"] for row in measured})
     lines = ["# Benchmark: run time against error, the paper's scene", "", *reproduce(command),
              "Every time scheme on uniform and on graded meshes (scenes/paper_graded.toml), bdf2 on meshes adapted "
-             "to its error estimate (below), the active-set contact solver. **Steps:** each level's N is chosen so that the scheme's estimated time error is "
+             "to its error estimate (below), the active-set contact solver, with displacements of degree "
+             f"{' and '.join(map(str, degrees))} (*P1*, *P2* in a variant's name: `space.order`"
+             + ("; P2 runs one level fewer of each family, two at least, its level ℓ having the nodes of P1's level "
+                "ℓ + 1" if degrees == [1, 2] else "") +
+             "). *nodes* are the displacement's (at P2 the vertices and the edges' middles). **Steps:** each level's N is chosen so that the scheme's estimated time error is "
              f"{fraction:g} × the level's space error: the time error model of each scheme comes from the pilots of "
-             "`time.N = \"auto\"` on uniform level 0 (below), the space error of a level is bdf2's measured error "
+             "`time.N = \"auto\"` on uniform level 0 at P1 (below; the time error is the scheme's, used at "
+             "both degrees), the space error of a level is bdf2's measured error "
              "there (bdf2 aiming at a quarter of that fraction of the previous level's, whose time error is then "
              "negligible). *time target* and *est. time error* are that aim and the model's estimate at the N "
              "run (N doubled where an explicit bound refused it).", "",
@@ -272,10 +278,10 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
              "*error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto the reference's meshes; "
              "*error vs check* the same against the check. Runs under 20 s are the fastest of 3 (this machine's "
              "timings drift by ±20 %).", "",
-             f"**Reference:** the graded mesh two levels finer than the finest measured ({reference['nodes1']} + "
-             f"{reference['nodes2']} nodes), bdf2, N = "
+             f"**Reference:** the graded mesh two levels finer than the finest measured at P{reference['degree']}, "
+             f"at that degree ({reference['nodes1']} + {reference['nodes2']} nodes), bdf2, N = "
              f"{reference['N']} (time error ≈ 1e-6). **Check:** an independent mesh of the same size — the graded "
-             f"level between the finest measured and the reference's, split once ({check['nodes1']} + {check['nodes2']} nodes), same scheme and N. They lie "
+             f"level between the finest measured at P{reference['degree']} and the reference's, split once ({check['nodes1']} + {check['nodes2']} nodes), same scheme and N. They lie "
              f"{100 * check['errorToReference']:.3f} % apart; the smallest error reported is {100 * smallest:.3f} %, "
              + ("so the reference is at least four times more accurate than every error in the table."
                 if resolved else
@@ -321,19 +327,21 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
     adapted = [row for row in measured if row["family"] == "adapted"]
     if adapted:
         lines += ["", "Adapted meshes (bdf2): `orchestrate adapt scenes/paper.toml --target E` from the scene's uniform "
-                  "pilot (n = 24, no hand-placed singular point), at the N of the row; its last run timed as every "
+                  "pilot (" + "; ".join(dict.fromkeys(f"P{row['degree']}: {row['pilot']}" for row in adapted)) +
+                  (": the same nodes" if len(degrees) > 1 else "") + "; no hand-placed singular point), at the N "
+                  "of the row; its last run timed as every "
                   "other run (*run*), and the whole loop that designed it (*loop*: the pilot and every cycle's run, "
                   "estimate and meshing); *estimate*: the last design's, NOT REACHED where the loop spent its cycles "
                   "above the target:", "",
-                  "| target of the estimate | cycles | estimate | nodes (body 1, 2) | N | error (vs check) | run | loop |",
-                  "|---|---|---|---|---|---|---|---|"]
-        lines += [f"| {row['level'].removeprefix('target ')} | {row['adaptCycles']} | {100 * row['adaptEstimate']:.3f} %"
+                  "| degree | target of the estimate | cycles | estimate | nodes (body 1, 2) | N | error (vs check) | "
+                  "run | loop |", "|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"| P{row['degree']} | {row['level'].removeprefix('target ')} | {row['adaptCycles']} | {100 * row['adaptEstimate']:.3f} %"
                   f"{'' if row['adaptEstimate'] <= row['adaptTarget'] else ' NOT REACHED'} | "
                   f"{row['nodes1']}, {row['nodes2']} | "
                   f"{row['N']} | {100 * row['errorToReference']:.3f} % ({100 * row['errorToCheck']:.3f} %) | "
                   f"{row['wall']:.3f} s | {row['adaptSeconds']:.2f} s |" for row in adapted]
-    lines += ["", "Sparse direct solvers on the matrices of the finest measured uniform level (first solve includes "
-              "the factorization):", "",
+    lines += ["", "Sparse direct solvers on the P1 matrices of the finest measured uniform level (first solve "
+              "includes the factorization):", "",
               "| matrix | dofs | solver | factorization + first solve | next solve |", "|---|---|---|---|---|"]
     for row in solvers:
         lines.append(f"| {row['matrix']} | {row['dofs']} | {row['solver']} | {row['factorSeconds'] * 1000:.1f} ms | "
