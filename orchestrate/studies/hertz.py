@@ -273,7 +273,7 @@ def plot_pressure(path: Path, finest: dict) -> None:
     colours = {}  # one per case, whatever its degree; P1 hollow circles, P2 dots
     for case, (row, result) in finest.items():
         _, _, x, _, pressure = contact_line(result)  # each segment's pressure at its middle
-        n, a, p0, degree = row["n"], row["a"], row["p0"], row.get("order", 1)
+        n, a, p0, degree = row["n"], row["a"], row["p0"], row["order"]
         colour = colours.setdefault(case.split(",")[0], f"C{len(colours)}")
         shown = np.abs(x) < 1.6 * a
         prefix = f"{case}: " if case else ""
@@ -294,7 +294,7 @@ def plot_pressure(path: Path, finest: dict) -> None:
 def finest_degree(finest: dict, case: str) -> int:
     """The highest degree `finest` holds of the case `case` names ("same, P2" → "same"): the one
     whose analytic curve is drawn (the degrees' forces differ by less than the line's width)."""
-    return max(row.get("order", 1) for key, (row, _) in finest.items() if key.split(",")[0] == case.split(",")[0])
+    return max(row["order"] for key, (row, _) in finest.items() if key.split(",")[0] == case.split(",")[0])
 
 
 def plot_von_mises(path: Path, result) -> None:
@@ -326,7 +326,7 @@ def gallery_figures(result, folder: Path) -> list[Path]:
     import tomllib
 
     scene = tomllib.loads((result.folder / "scene.toml").read_text())
-    row = {"n": scene["body1"]["mesh"]["n"], **measure(result, RADIUS)}
+    row = {"n": scene["body1"]["mesh"]["n"], "order": scene.get("space", {}).get("order", 1), **measure(result, RADIUS)}
     paths = [folder / "pressure.png", folder / "vonmises.png"]
     plot_pressure(paths[0], {"": (row, result)})
     plot_von_mises(paths[1], result)
