@@ -7,7 +7,7 @@ from orchestrate.cli import main
 code = main()
 if sys.orig_argv[1:3] == ["-m", "orchestrate"]:
     # The command is done and every file it wrote is closed: a process of its own ends without
-    # Python's teardown of its modules (numpy's and pydantic's take 35 ms, a tenth of a small
+    # Python's teardown of its modules (20 ms with numpy's, a tenth of a small
     # run), once the exit handlers have run and what it printed is out. (Run inside another
     # program, by runpy or a profiler, it returns to that program instead.)
     atexit._run_exitfuncs()

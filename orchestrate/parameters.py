@@ -12,12 +12,9 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Literal, Union
-
-from pydantic import BeforeValidator, Field
-
 from orchestrate.expr import number_code
 from orchestrate.freefem import REPO
+from orchestrate.schema import Boolean, Choice, Custom, Integer, Key, Number
 
 SOURCE = REPO / "edp" / "lib" / "parameters.toml"
 TABLE_IDP = REPO / "edp" / "lib" / "parameterTable.idp"
@@ -61,7 +58,7 @@ class Parameter:
 
     @property
     def bounds(self) -> dict[str, float]:
-        """pydantic limits (gt, ge, lt, le) of an interval range; none for an infinite bound."""
+        """The limits (gt, ge, lt, le) of an interval range; none for an infinite bound."""
         if self.type not in ("real", "int", "labels") or self.range == "-":
             return {}
         low, high = (part.strip() for part in self.range[1:-1].split(","))
@@ -120,20 +117,29 @@ PARAMETERS, SCHEMES = load()
 ORDER = {name: scheme["order"] for name, scheme in SCHEMES.items()}  # each scheme's order in k
 
 
-def field(name: str, **extra):
-    """The pydantic Field of a table parameter: its default, limits and meaning; strict, so a
-    boolean is no number and a float no integer; finite reals only."""
+CHECKS = {"real": Number, "int": Integer}
+
+
+def field(name: str) -> Key:
+    """The scene key of a table parameter: its check (strict, so a boolean is no number and a float
+    no integer; finite reals only), default, limits and meaning."""
     parameter = PARAMETERS[name]
-    options = {"allow_inf_nan": False} if parameter.type == "real" else {}
-    if parameter.type != "choice":  # a choice is a Literal, strict by nature
-        options["strict"] = True
-    description = f"{parameter.meaning} [{parameter.unit}]" if parameter.unit != "-" else parameter.meaning
-    return Field(parameter.value(), description=description, **parameter.bounds, **options, **extra)
+    if parameter.type == "choice":
+        check = Choice(*parameter.choices)
+    elif parameter.type == "flag":
+        check = Boolean()
+    else:  # a real or an integer (a row of another type has a key of its own in scene.py)
+        check = CHECKS[parameter.type](**parameter.bounds)
+    return Key(check, parameter.value(), described(parameter))
 
 
-def unbounded_field(name: str):
-    """The type and Field of a real whose range is closed at infinity ("[0, inf]"): a finite number
-    in the range, or the text "inf" (JSON and TOML have no infinite number)."""
+def described(parameter: Parameter) -> str:
+    return f"{parameter.meaning} [{parameter.unit}]" if parameter.unit != "-" else parameter.meaning
+
+
+def unbounded_field(name: str) -> Key:
+    """The scene key of a real whose range is closed at infinity ("[0, inf]"): a finite number in
+    the range, or the text "inf" (JSON and TOML have no infinite number)."""
     parameter = PARAMETERS[name]
     low = parameter.bounds.get("ge", parameter.bounds.get("gt"))
 
@@ -145,9 +151,7 @@ def unbounded_field(name: str):
             raise ValueError(f'give a number in {parameter.range} or "inf"')
         return float(value)
 
-    description = f"{parameter.meaning} [{parameter.unit}]"
-    return Annotated[Union[float, Literal["inf"]], BeforeValidator(validate),
-                     Field(parameter.value(), description=description)]
+    return Key(Custom(validate, 'number or one of "inf"'), parameter.value(), described(parameter), parameter.range)
 
 
 def scene_value(data: dict, dotted: str):

@@ -34,7 +34,6 @@ import threading
 import time
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from contextlib import contextmanager
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -88,8 +87,10 @@ def signals_as_interrupt():
 
 @functools.cache
 def package_versions() -> dict[str, str]:
+    from importlib import metadata  # 15 ms: loaded while FreeFem++ runs (prepare_reading)
+
     versions = {"python": platform.python_version()}
-    for name in ("numpy", "meshio", "pyvista", "vtk", "matplotlib", "gmsh", "pydantic", "dask", "distributed"):
+    for name in ("numpy", "meshio", "pyvista", "vtk", "matplotlib", "gmsh", "dask", "distributed"):
         try:
             versions[name] = metadata.version(name)
         except metadata.PackageNotFoundError:

@@ -2,10 +2,11 @@
 
 A scene has the two bodies (mesh, material, damage, boundary conditions by mesh label), the glue,
 the time grid, solver options and outputs; `scenes/paper.toml` is the paper's. Validation is done
-by pydantic models that forbid unknown keys; every error names the key, the value and what is
-allowed. Expressions (loads, prescribed displacements) go through orchestrate.expr. The FreeFEM
-side receives a generated scene file holding only numbers formatted here, labels, file paths
-checked here, and expression code written from parsed trees (`to_freefem_scene`).
+by the tables below (orchestrate/schema.py), which refuse unknown keys; every error names the key,
+the value and what is allowed. Expressions (loads, prescribed displacements) go through
+orchestrate.expr. The FreeFEM side receives a generated scene file holding only numbers formatted
+here, labels, file paths checked here, and expression code written from parsed trees
+(`to_freefem_scene`).
 """
 from __future__ import annotations
 
@@ -17,16 +18,14 @@ import re
 import tomllib
 import unicodedata
 from pathlib import Path
-from typing import Annotated, Literal, Union
-
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag, ValidationError, ValidationInfo,
-                      field_validator, model_validator)
 
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import TIME_LIMIT, geo_constants
 from orchestrate.parameters import PARAMETERS, driver_values, field, unbounded_field
+from orchestrate.schema import (Boolean, Check, Choice, Custom, Integer, Key, ListOf, MapOf, Number, Optional, Table,
+                                TableOf, Tagged, Text, Then, TupleOf, ValidationError, after, problem)
 
 
 class SceneError(InputError):
@@ -52,11 +51,11 @@ def _expression(value):
     return value
 
 
-Expression = Annotated[str, BeforeValidator(_expression)]
+EXPRESSION = Custom(_expression, "text")
 
 
-def initial_value(name: str):
-    """A field for initial data given per position: a number in the table's range, or an
+def initial_value(name: str) -> Key:
+    """A key for initial data given per position: a number in the table's range, or an
     expression of x, y (never t: it is the state at t = 0) whose values FreeFEM checks against the
     same range at every node before the first step. An expression that is a number is that number."""
     parameter = PARAMETERS[name]
@@ -77,8 +76,9 @@ def initial_value(name: str):
             raise ValueError(f"{value} is outside {parameter.range}")
         return float(value)
 
-    return Annotated[Union[float, str], BeforeValidator(validate), Field(parameter.value(), description=parameter.meaning)]
-Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]  # a number, never a boolean or a text
+    return Key(Custom(validate, "number or text"), parameter.value(), parameter.meaning, parameter.range)
+
+
 MESHES = REPO / "meshes"
 IDENTIFIER = r"^[A-Za-z_][A-Za-z_0-9]{0,63}$"
 LABEL = PARAMETERS["contactLabel"].bounds  # the range of a boundary label (parameters.toml)
@@ -99,13 +99,6 @@ def _contact_labels(value):
     return labels
 
 
-ContactLabels = Annotated[list[int], BeforeValidator(_contact_labels)]
-
-
-class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
 def geo_path(value: str, folder: Path) -> Path:
     """Where a scene's mesh.geo is: an absolute path as is; a relative one beside the scene file
     (`folder`), else, when no file is there, the repository's (meshes/...), so the project's scenes
@@ -122,43 +115,67 @@ def geo_path(value: str, folder: Path) -> Path:
     return read_sources(path)[0].path
 
 
-class Mesh(Strict):
+def scene_folder(context: dict) -> Path:
+    """The folder a scene's relative paths are taken from: its file's (the working folder for a
+    scene given as data)."""
+    return Path(context.get("folder") or Path.cwd())
+
+
+def geo_file(value: str, context: dict) -> str:
+    """Resolved once, when the scene is read: the scene as data (a sweep's worker, scene.toml
+    in the run folder) names the same file wherever it is read."""
+    return str(geo_path(value, scene_folder(context)))
+
+
+def sizes_file(value: str, context: dict) -> str:
+    """Resolved once, when the scene is read, like geo; read and checked when the mesh is made."""
+    path = Path(value)
+    if not path.is_absolute():
+        path = scene_folder(context) / path
+    if not path.is_file():
+        raise ValueError(f"sizes: {path} is not a file")
+    return str(path.resolve())
+
+
+REAL = Number()  # a finite number, never a boolean or a text
+
+
+class Mesh(Table):
     """A gmsh source with its size parameter n (elements per side) and other DefineConstant
     values, or a rectangle (meshes/rectangle.geo: labels 1 bottom, 2 right, 3 top, 4 left). A .geo
     file is gmsh code: gmsh reads it confined and bounded (orchestrate/mesh.py)."""
-    geo: str | None = Field(None, description="a gmsh .geo file: absolute, or relative to the scene file's folder "
-                                              "(where none is there, the repository's meshes/...), meshed in a "
-                                              "sandbox (README.md, Your own files); or give rectangle")
-    rectangle: tuple[Real, Real, Real, Real] | None = Field(
-        default=None, description="[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
-    n: int = Field(strict=True, ge=1, le=4096, description="the mesh size parameter of the .geo (elements per side "
-                                                           "or per unit length: its header says)")
-    structured: bool | None = Field(None, strict=True, description="a structured (transfinite) mesh, where the .geo "
-                                                                    "offers one")
-    refine: int = Field(0, strict=True, ge=0, le=6, description="times every triangle is split in four (nested meshes)")
-    sizes: str | None = Field(None, description="a gmsh view of element sizes (View \"...\" {ST(...){...}; ...};) that "
-                                                "sets the mesh's sizes, as `orchestrate adapt` writes it: absolute, or "
-                                                "relative to the scene file's folder; the .geo's constant adapted "
-                                                "(which it must define) is then 1: no Transfinite lines")
-    parameters: dict[Annotated[str, Field(pattern=IDENTIFIER)], Real] = Field(
-        {}, description="other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
-    contactLabel: ContactLabels = Field(PARAMETERS["contactLabel"].value(), description=PARAMETERS["contactLabel"].meaning)
-    timeLimit: float = Field(TIME_LIMIT, strict=True, gt=0, le=86400, allow_inf_nan=False,
-                             description="the wall-clock and CPU time gmsh may take to mesh the body, after which "
-                                         "it is stopped and the run refused (the default: 2.5 times what the "
-                                         "largest mesh a run fits in 23 GiB took, orchestrate/mesh.py) [s]")
+    geo = Key(Optional(Then(Text(), geo_file)), None,
+              "a gmsh .geo file: absolute, or relative to the scene file's folder (where none is there, the "
+              "repository's meshes/...), meshed in a sandbox (README.md, Your own files); or give rectangle")
+    rectangle = Key(Optional(TupleOf(REAL, REAL, REAL, REAL)), None,
+                    "[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
+    n = Key(Integer(ge=1, le=4096), description="the mesh size parameter of the .geo (elements per side or per unit "
+                                                "length: its header says)")
+    structured = Key(Optional(Boolean()), None, "a structured (transfinite) mesh, where the .geo offers one")
+    refine = Key(Integer(ge=0, le=6), 0, "times every triangle is split in four (nested meshes)")
+    sizes = Key(Optional(Then(Text(), sizes_file)), None,
+                "a gmsh view of element sizes (View \"...\" {ST(...){...}; ...};) that sets the mesh's sizes, as "
+                "`orchestrate adapt` writes it: absolute, or relative to the scene file's folder; the .geo's constant "
+                "adapted (which it must define) is then 1: no Transfinite lines")
+    parameters = Key(MapOf(IDENTIFIER, REAL), {},
+                     "other DefineConstant values of the .geo, by name (e.g. { split = 1 })")
+    contactLabel = Key(Custom(_contact_labels, "list of integer"), PARAMETERS["contactLabel"].value(),
+                       PARAMETERS["contactLabel"].meaning, PARAMETERS["contactLabel"].range)
+    timeLimit = Key(Number(gt=0, le=86400), TIME_LIMIT,
+                    "the wall-clock and CPU time gmsh may take to mesh the body, after which it is stopped and the run "
+                    "refused (the default: 2.5 times what the largest mesh a run fits in 23 GiB took, "
+                    "orchestrate/mesh.py) [s]")
 
-    @model_validator(mode="after")
+    @after
     def one_source(self):
         if (self.geo is None) == (self.rectangle is None):
             raise ValueError("give exactly one of geo (a .geo file) and rectangle ([x0, x1, y0, y1])")
         if self.rectangle is not None:
             x0, x1, y0, y1 = self.rectangle
-            if not all(math.isfinite(v) for v in self.rectangle) or not (x0 < x1 and y0 < y1):
+            if not (x0 < x1 and y0 < y1):
                 raise ValueError(f"rectangle {list(self.rectangle)} needs finite x0 < x1 and y0 < y1")
-        return self
 
-    @model_validator(mode="after")
+    @after
     def known_parameters(self):
         """parameters set the .geo's other DefineConstant values; n, structured and the rectangle
         have keys of their own (with their limits), and a name the .geo does not define would be
@@ -178,30 +195,6 @@ class Mesh(Strict):
             if name not in constants:
                 raise ValueError(f"parameters.{name}: not a constant of {self.source().name} (its constants: "
                                  f"{', '.join(constants)}; {', '.join(sorted(own & set(constants)))} have keys of their own)")
-        return self
-
-    @field_validator("geo")
-    @classmethod
-    def geo_file(cls, value, info: ValidationInfo):
-        """Resolved once, when the scene is read: the scene as data (a sweep's worker, scene.toml
-        in the run folder) names the same file wherever it is read."""
-        if value is None:
-            return value
-        folder = (info.context or {}).get("folder") or Path.cwd()
-        return str(geo_path(value, Path(folder)))
-
-    @field_validator("sizes")
-    @classmethod
-    def sizes_file(cls, value, info: ValidationInfo):
-        """Resolved once, when the scene is read, like geo; read and checked when the mesh is made."""
-        if value is None:
-            return value
-        path = Path(value)
-        if not path.is_absolute():
-            path = Path((info.context or {}).get("folder") or Path.cwd()) / path
-        if not path.is_file():
-            raise ValueError(f"sizes: {path} is not a file")
-        return str(path.resolve())
 
     def source(self) -> Path:
         return MESHES / "rectangle.geo" if self.rectangle is not None else Path(self.geo)
@@ -222,70 +215,74 @@ class Mesh(Strict):
         return numbers
 
 
-class Material(Strict):
+class Material(Table):
     """σ = Aε(u̇) + ζGε(u): (Aτ) = μ tr(τ) I + η τ; G from E, ν (plane stress or strain)."""
-    E: float = field("E")
-    nu: float = field("nu")
-    planeStrain: bool = field("planeStrain")
-    mu: float = field("mu")
-    eta: float = field("eta")
-    kappa: float = field("kappa")
+    E = field("E")
+    nu = field("nu")
+    planeStrain = field("planeStrain")
+    mu = field("mu")
+    eta = field("eta")
+    kappa = field("kappa")
 
-    @model_validator(mode="after")
+    @after
     def viscosity_definite(self):
         if 2 * self.mu + self.eta <= 0:
             raise ValueError(f"mu = {self.mu} with eta = {self.eta}: A needs 2 mu + eta > 0")
-        return self
 
 
-class BodyDamage(Strict):
+class BodyDamage(Table):
     """φ = λ_D (1 − ζ)/ζ − ½ λ_u R(ε·ε) + λ_w, and the initial damage ζ0."""
-    lambdaD: float = field("lambdaD")
-    lambdaU: float = field("lambdaU")
-    lambdaW: float = field("lambdaW")
-    zeta0: initial_value("zeta0")
+    lambdaD = field("lambdaD")
+    lambdaU = field("lambdaU")
+    lambdaW = field("lambdaW")
+    zeta0 = initial_value("zeta0")
 
 
-LABEL_FIELD = {"strict": True, **LABEL, "description": "the boundary label it acts on"}
+def label_key() -> Key:
+    return Key(Integer(**LABEL), description="the boundary label it acts on")
 
 
-class Clamped(Strict):
-    type: Literal["clamped"] = Field(description="u = 0 on the label")
-    label: int = Field(**LABEL_FIELD)
+def component_key(meaning: str) -> Key:
+    return Key(Choice("x", "y"), description=meaning)
 
 
-class Roller(Strict):
-    type: Literal["roller"] = Field(description="one component of u is 0 on the label, the other free")
-    label: int = Field(**LABEL_FIELD)
-    component: Literal["x", "y"] = Field(description="the component held")
+class Clamped(Table):
+    type = Key(Choice("clamped"), description="u = 0 on the label")
+    label = label_key()
 
 
-class Displacement(Strict):
-    type: Literal["displacement"] = Field(description="one component of u prescribed on the label")
-    label: int = Field(**LABEL_FIELD)
-    component: Literal["x", "y"] = Field(description="the component prescribed")
-    value: Expression = Field(description="its value, an expression of x, y, t [m]")
+class Roller(Table):
+    type = Key(Choice("roller"), description="one component of u is 0 on the label, the other free")
+    label = label_key()
+    component = component_key("the component held")
 
 
-class Traction(Strict):
-    type: Literal["traction"] = Field(description="a traction on the label")
-    label: int = Field(**LABEL_FIELD)
-    fx: Expression = Field("0", description="its x component, an expression of x, y, t [N/m²]")
-    fy: Expression = Field("0", description="its y component, an expression of x, y, t [N/m²]")
+class Displacement(Table):
+    type = Key(Choice("displacement"), description="one component of u prescribed on the label")
+    label = label_key()
+    component = component_key("the component prescribed")
+    value = Key(EXPRESSION, description="its value, an expression of x, y, t [m]")
 
 
-Boundary = Annotated[Union[Clamped, Roller, Displacement, Traction], Field(discriminator="type")]
+class Traction(Table):
+    type = Key(Choice("traction"), description="a traction on the label")
+    label = label_key()
+    fx = Key(EXPRESSION, "0", "its x component, an expression of x, y, t [N/m²]")
+    fy = Key(EXPRESSION, "0", "its y component, an expression of x, y, t [N/m²]")
 
 
-class Body(Strict):
-    mesh: Mesh
-    material: Material = Material()
-    damage: BodyDamage = BodyDamage()
-    boundary: list[Boundary] = Field(min_length=1, description="the boundary conditions, a list of tables "
-                                                              "[[bodyN.boundary]] (types below)")
-    volume_force: tuple[Expression, Expression] = Field(("0", "0"), description="[fx, fy], expressions of x, y, t [N/m³]")
+BOUNDARY_TYPES = {"clamped": Clamped, "roller": Roller, "displacement": Displacement, "traction": Traction}
 
-    @model_validator(mode="after")
+
+class Body(Table):
+    mesh = Key(TableOf(Mesh))
+    material = Key(TableOf(Material), {})
+    damage = Key(TableOf(BodyDamage), {})
+    boundary = Key(ListOf(Tagged("type", BOUNDARY_TYPES), min_length=1),
+                   description="the boundary conditions, a list of tables [[bodyN.boundary]] (types below)")
+    volume_force = Key(TupleOf(EXPRESSION, EXPRESSION), ["0", "0"], "[fx, fy], expressions of x, y, t [N/m³]")
+
+    @after
     def consistent_boundary(self):
         prescribed: dict[int, set[str]] = {}
         for condition in self.boundary:
@@ -303,7 +300,6 @@ class Body(Strict):
         if not prescribed:
             raise ValueError("no clamped, roller or displacement condition: nothing would hold the body's sliding along "
                              "Γ_C (the contact is frictionless; docs/model-choices.md, Floating bodies)")
-        return self
 
 
 def _steps(value):
@@ -316,61 +312,59 @@ def _steps(value):
     return value
 
 
-class Time(Strict):
+class Time(Table):
     """N = "auto" chooses the steps for targetError (orchestrate/steps.py, docs/model-choices.md)."""
-    T: float = field("T")
-    N: Annotated[Union[int, Literal["auto"]], BeforeValidator(_steps)] = Field(
-        PARAMETERS["N"].value(), description=PARAMETERS["N"].meaning + ', or "auto" (with targetError)')
-    scheme: Literal[PARAMETERS["scheme"].choices] = field("scheme")
-    startSteps: int = field("startSteps")
-    startSubsteps: int = field("startSubsteps")
-    targetError: float | None = Field(None, strict=True, gt=0, le=0.5, allow_inf_nan=False,
-                                      description='with N = "auto": the relative time error of u(T) in the V norm '
-                                                  'to reach')
+    T = field("T")
+    N = Key(Custom(_steps, 'integer or one of "auto"'), PARAMETERS["N"].value(),
+            PARAMETERS["N"].meaning + ', or "auto" (with targetError)', PARAMETERS["N"].range)
+    scheme = field("scheme")
+    startSteps = field("startSteps")
+    startSubsteps = field("startSubsteps")
+    targetError = Key(Optional(Number(gt=0, le=0.5)), None,
+                      'with N = "auto": the relative time error of u(T) in the V norm to reach')
 
-    @model_validator(mode="after")
+    @after
     def target_with_auto(self):
         if self.N == "auto" and self.targetError is None:
             raise ValueError('N = "auto" needs targetError, the relative time error to reach (e.g. 1e-3)')
         if self.N != "auto" and self.targetError is not None:
             raise ValueError(f'targetError applies to N = "auto" only (N = {self.N} here)')
-        return self
 
 
-class Glue(Strict):
-    gammaNu: float = field("gammaNu")
-    gammaR: float = field("gammaR")
-    pTau: float = field("pTau")
-    debondMobility: unbounded_field("debondMobility")
-    adhesionEnergy: float = field("adhesionEnergy")
-    shearDebonding: bool = field("shearDebonding")
-    bondingCoupled: bool = field("bondingCoupled")
-    L: float = field("L")
-    beta0: initial_value("beta0")
+class Glue(Table):
+    gammaNu = field("gammaNu")
+    gammaR = field("gammaR")
+    pTau = field("pTau")
+    debondMobility = unbounded_field("debondMobility")
+    adhesionEnergy = field("adhesionEnergy")
+    shearDebonding = field("shearDebonding")
+    bondingCoupled = field("bondingCoupled")
+    L = field("L")
+    beta0 = initial_value("beta0")
 
 
-class DamageNumerics(Strict):
-    zetaMin: float = field("zetaMin")
+class DamageNumerics(Table):
+    zetaMin = field("zetaMin")
 
 
-class Space(Strict):
-    order: int = field("order")
+class Space(Table):
+    order = field("order")
 
 
-class Solver(Strict):
-    contactSolver: Literal[PARAMETERS["contactSolver"].choices] = field("contactSolver")
-    contactTol: float = field("contactTol")
-    contactMaxIt: int = field("contactMaxIt")
-    bmOmega: float = field("bmOmega")
-    condensation: Literal[PARAMETERS["condensation"].choices] = field("condensation")
-    contactColumnsMB: float = field("contactColumnsMB")
-    columnBlock: int = field("columnBlock")
-    damageTol: float = field("damageTol")
-    damageMaxIt: int = field("damageMaxIt")
-    boundTol: float = field("boundTol")
-    linearSolver: Literal[PARAMETERS["linearSolver"].choices] = field("linearSolver")
-    allowUnstable: bool = field("allowUnstable")
-    divergenceFactor: float = field("divergenceFactor")
+class Solver(Table):
+    contactSolver = field("contactSolver")
+    contactTol = field("contactTol")
+    contactMaxIt = field("contactMaxIt")
+    bmOmega = field("bmOmega")
+    condensation = field("condensation")
+    contactColumnsMB = field("contactColumnsMB")
+    columnBlock = field("columnBlock")
+    damageTol = field("damageTol")
+    damageMaxIt = field("damageMaxIt")
+    boundTol = field("boundTol")
+    linearSolver = field("linearSolver")
+    allowUnstable = field("allowUnstable")
+    divergenceFactor = field("divergenceFactor")
 
     @property
     def factored(self) -> bool:
@@ -378,86 +372,96 @@ class Solver(Strict):
         decides it: run.json condensation)."""
         return self.condensation == "factor" or (self.condensation == "auto" and self.linearSolver == "CHOLMOD")
 
-    @model_validator(mode="after")
+    @after
     def factor_needs_cholmod(self):
         if self.condensation == "factor" and self.linearSolver != "CHOLMOD":
             raise ValueError(f"condensation = factor splits CHOLMOD's solves: it needs linearSolver = CHOLMOD "
                              f"(linearSolver = {self.linearSolver} here; give condensation = columns)")
-        return self
 
 
 UNIT_NAME = re.compile(r"[A-Za-zµ]{1,8}")  # a unit's name as the images print it: letters only (no TeX)
-UNIT_PRESET, UNIT_TABLE = "units-preset", "units-table"  # output.units' two forms (tags, not keys: left out of messages)
 
 
-def _unit_preset(value):
-    if value not in ("SI", "mm-N-s"):
-        raise ValueError('give "SI", "mm-N-s", or a table of the scene\'s own units, '
-                         '{ length = "mm", force = "N", time = "s" }')
+def unit_name(value: str, context: dict) -> str:
+    if not UNIT_NAME.fullmatch(value):
+        raise ValueError("a unit's name is 1 to 8 letters (m, mm, kN, ms, ...), as the images print it")
     return value
 
 
-class Units(Strict):
+class Units(Table):
     """A consistent set of units, by their names (the images label numbers with them)."""
-    length: str = Field("m", description="the unit of length, e.g. m, mm, um")
-    force: str = Field("N", description="the unit of force, e.g. N, kN, mN")
-    time: str = Field("s", description="the unit of time, e.g. s, ms, h")
+    length = Key(Then(Text(), unit_name), "m", "the unit of length, e.g. m, mm, um")
+    force = Key(Then(Text(), unit_name), "N", "the unit of force, e.g. N, kN, mN")
+    time = Key(Then(Text(), unit_name), "s", "the unit of time, e.g. s, ms, h")
 
-    @field_validator("length", "force", "time")
-    @classmethod
-    def unit_name(cls, value: str) -> str:
-        if not UNIT_NAME.fullmatch(value):
-            raise ValueError("a unit's name is 1 to 8 letters (m, mm, kN, ms, ...), as the images print it")
+
+class UnitsCheck(Check):
+    """output.units: a preset's name, or a table of the scene's own units."""
+    kind = 'one of "SI", "mm-N-s" or Units'
+
+    def __call__(self, value, context):
+        if isinstance(value, (dict, Units)):
+            return Units.checked(value, context)
+        if value not in ("SI", "mm-N-s"):
+            raise problem("value_error", 'give "SI", "mm-N-s", or a table of the scene\'s own units, '
+                                         '{ length = "mm", force = "N", time = "s" }', value)
         return value
 
 
-class Output(Strict):
+def _output_times(value):
+    """output.times: a word, or a list of times (their range is the scene's: Scene's check)."""
+    if value in ("final", "all", "none"):
+        return value
+    if not isinstance(value, list) or not value:
+        raise ValueError('give "final", "all", "none" or a list of times in (0, T]')
+    for time in value:
+        if isinstance(time, bool) or not isinstance(time, (int, float)) or not math.isfinite(time):
+            raise ValueError(f"{time!r} is not a time: give numbers in (0, T]")
+    return [float(time) for time in value]
+
+
+class Output(Table):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),
     "state" (the unknowns, for error norms between runs)."""
-    times: Literal["final", "all", "none"] | Annotated[list[Real], Field(min_length=1)] = Field(
-        PARAMETERS["outTimes"].default, description=PARAMETERS["outTimes"].meaning + " [s]")
-    fields: list[Literal["bodies", "stress", "contact", "state"]] = Field(
-        PARAMETERS["outFields"].default.split(","), description=PARAMETERS["outFields"].meaning)
-    images: bool = Field(True, strict=True, description="render fields.png, contact_line.png, history.png "
-                                                        "(and beta_xt.png) after the run")
-    units: Annotated[Union[Annotated[Literal["SI", "mm-N-s"], BeforeValidator(_unit_preset), Tag(UNIT_PRESET)],
-                           Annotated[Units, Tag(UNIT_TABLE)]],
-                     Discriminator(lambda value: UNIT_TABLE if isinstance(value, (dict, Units)) else UNIT_PRESET)] = Field(
-        "SI", description="what the images label the numbers with: SI (m, N, N/m², s), mm-N-s (mm, N, N/mm² = MPa, s), "
-                          "or a table of the scene's own { length = ..., force = ..., time = ... } (a stress is then "
-                          "labelled force/length², a force per unit thickness force/length); the solver needs none")
-    checkpointEvery: int = field("checkpointEvery")
-    checkpointSeconds: float = field("checkpointSeconds")
+    times = Key(Custom(_output_times, 'one of "final", "all", "none" or list of number'),
+                PARAMETERS["outTimes"].default, PARAMETERS["outTimes"].meaning + " [s]")
+    fields = Key(ListOf(Choice("bodies", "stress", "contact", "state")), PARAMETERS["outFields"].default.split(","),
+                 PARAMETERS["outFields"].meaning)
+    images = Key(Boolean(), True, "render fields.png, contact_line.png, history.png (and beta_xt.png) after the run")
+    units = Key(UnitsCheck(), "SI",
+                "what the images label the numbers with: SI (m, N, N/m², s), mm-N-s (mm, N, N/mm² = MPa, s), or a "
+                "table of the scene's own { length = ..., force = ..., time = ... } (a stress is then labelled "
+                "force/length², a force per unit thickness force/length); the solver needs none")
+    checkpointEvery = field("checkpointEvery")
+    checkpointSeconds = field("checkpointSeconds")
 
 
-class Scene(Strict):
-    title: str = Field("", max_length=500, description="what the scene is, for its files and images")
-    time: Time = Time()
-    space: Space = Space()
-    body1: Body
-    body2: Body
-    glue: Glue = Glue()
-    damage: DamageNumerics = DamageNumerics()
-    solver: Solver = Solver()
-    output: Output = Output()
+def _title(value: str, context: dict) -> str:
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError("the title is not valid Unicode text (a lone surrogate)") from None
+    return value
 
-    @field_validator("title")
-    @classmethod
-    def title_text(cls, value):
-        try:
-            value.encode("utf-8")
-        except UnicodeEncodeError:
-            raise ValueError("the title is not valid Unicode text (a lone surrogate)") from None
-        return value
 
-    @model_validator(mode="after")
+class Scene(Table):
+    title = Key(Then(Text(max_length=500), _title), "", "what the scene is, for its files and images")
+    time = Key(TableOf(Time), {})
+    space = Key(TableOf(Space), {})
+    body1 = Key(TableOf(Body))
+    body2 = Key(TableOf(Body))
+    glue = Key(TableOf(Glue), {})
+    damage = Key(TableOf(DamageNumerics), {})
+    solver = Key(TableOf(Solver), {})
+    output = Key(TableOf(Output), {})
+
+    @after
     def output_times_in_range(self):
         if isinstance(self.output.times, list):
             for value in self.output.times:
-                if not (math.isfinite(value) and 0 < value <= self.time.T):
+                if not 0 < value <= self.time.T:
                     raise ValueError(f"output.times: {value} is outside (0, T = {self.time.T}]")
-        return self
 
     @classmethod
     def load(cls, path: str | Path, overrides: dict | None = None, grid: tuple = ()) -> "Scene":
@@ -623,30 +627,26 @@ def as_given(line: str, given: dict[str, tuple[str, str]]) -> str:
 
 # --- messages --------------------------------------------------------------------------------
 
-BOUNDARY_TYPES = {"clamped": Clamped, "roller": Roller, "displacement": Displacement, "traction": Traction}
-
-
-def _model_at(path: tuple) -> type[BaseModel] | None:
-    """The model class found at a location of a scene (boundary tags included), for suggestions."""
-    model: object = Scene
+def _table_at(path: tuple) -> type[Table] | None:
+    """The table class found at a location of a scene (boundary tags included), for suggestions."""
+    table: type[Table] | None = Scene
     for part in path:
         if isinstance(part, int):
             continue
-        if part in BOUNDARY_TYPES and model is None:
-            model = BOUNDARY_TYPES[part]
+        if table is None:  # below a list of boundary conditions, the tag names the table
+            table = BOUNDARY_TYPES.get(part)
             continue
-        if part in (UNIT_PRESET, UNIT_TABLE):
-            model = Units if part == UNIT_TABLE else None
-            continue
-        if model is None:
+        key = table.keys.get(part)
+        if key is None:
             return None
-        fields = getattr(model, "model_fields", {})
-        if part not in fields:
-            return None
-        annotation = fields[part].annotation
-        model = next((a for a in getattr(annotation, "__args__", (annotation,))
-                      if isinstance(a, type) and issubclass(a, BaseModel)), None)
-    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+        table = _table_of(key.check)
+    return table
+
+
+def _table_of(check: Check) -> type[Table] | None:
+    if isinstance(check, TableOf):
+        return check.table
+    return Units if isinstance(check, UnitsCheck) else None
 
 
 def is_table(value) -> bool:
@@ -658,17 +658,17 @@ def is_table(value) -> bool:
 def describe(error: dict) -> str:
     """One line naming the key, the value and what is allowed."""
     raw = tuple(error["loc"])
-    location = tuple(part for part in raw if part not in BOUNDARY_TYPES and part not in (UNIT_PRESET, UNIT_TABLE))
+    location = tuple(part for part in raw if part not in BOUNDARY_TYPES)
     key = ".".join(str(part) for part in location) or "scene"
     if error["type"] == "extra_forbidden":
-        parent = _model_at(raw[:-1])
-        names = list(parent.model_fields) if parent else []
+        parent = _table_at(raw[:-1])
+        names = list(parent.keys) if parent else []
         close = difflib.get_close_matches(str(raw[-1]), names, n=1, cutoff=0.5)
         hint = f"did you mean '{close[0]}'?" if close else f"valid keys: {', '.join(names)}"
         return f"{key}: unknown key ({hint})"
     if error["type"] == "missing":
         return f"{key}: missing (required)"
-    message = error["msg"].removeprefix("Value error, ")
+    message = error["msg"]
     if error["type"] in ("model_type", "dict_type") or "input" not in error or is_table(error["input"]):
         return f"{key}: {message}"
     return f"{key} = {error['input']!r}: {message}"

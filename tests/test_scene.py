@@ -71,6 +71,8 @@ BAD = [
     ('[[body2.boundary]]\ntype = "clamped"\nlabel = 3', '[[body2.boundary]]\ntype = "clamped"\nlabel = 4',
      ["body2", "prescribed twice"]),
     ('times = "final"', "times = [0.5, 2.0]", ["output.times: 2.0 is outside (0, T = 1.0]"]),
+    ('times = "final"', 'times = "sometimes"', ["output.times = 'sometimes'", 'give "final", "all", "none" or a list']),
+    ('times = "final"', 'times = [0.5, "1"]', ["output.times = [0.5, '1']", "'1' is not a time"]),
     ('fields = ["bodies", "stress", "contact", "state"]', 'fields = ["bodies", "strain"]', ["output.fields.1 = 'strain'"]),
     ('linearSolver = "CHOLMOD"', 'linearSolver = "PETSc"', ["solver.linearSolver = 'PETSc'", "'CHOLMOD'"]),
     ("contactTol = 1e-10", "contactTol = 0.0", ["solver.contactTol = 0.0", "greater than 0"]),
