@@ -24,7 +24,8 @@ NAME = "estimate"
 def estimate(run: str | Path | Result, target: float | None = None, sizes: tuple[Path, Path] | None = None) -> list[dict]:
     """One row per saved state: t, estimate (η of both bodies), estimate1, estimate2, normV
     (‖u_h‖_V) and relative (η/‖u_h‖_V). With a relative `target`, also each body's element sizes
-    for a mesh whose estimate would be target·‖u_h‖_V, as gmsh views written to `sizes` (mesh.sizes)."""
+    for a mesh whose estimate would be target·‖u_h‖_V, as gmsh views written to `sizes` (mesh.sizes),
+    body 2's on Γ_C no coarser than body 1's trace facing it (the mortar's rule: estimate.edp)."""
     result = run if isinstance(run, Result) else load_result(run)
     states = state_times(result)
     if not states:
@@ -37,7 +38,9 @@ def estimate(run: str | Path | Result, target: float | None = None, sizes: tuple
         for j, (_, path) in enumerate(states):
             (scratch / f"state_{j:04d}.txt").symlink_to(path.resolve())
         (scratch / "states.txt").write_text(f"{len(states)}\n" + "".join(f"state_{j:04d}.txt\n" for j in range(len(states))))
-        design = ["-target", repr(float(target)), "-sizes1", "sizes1.pos", "-sizes2", "sizes2.pos"] if target else []
+        design = ["-target", repr(float(target)), "-sizes1", "sizes1.pos", "-sizes2", "sizes2.pos",
+                  "-contact1", str(result.params["contactLabel1"]), "-contact2", str(result.params["contactLabel2"])] \
+            if target else []
         done = run_script(REPO / "edp" / "tools" / "estimate.edp", ["-mesh1", "body1.msh", "-mesh2", "body2.msh",
                                                                     "-states", "states.txt", "-out", "estimate.csv",
                                                                     *design], cwd=scratch,

@@ -248,3 +248,24 @@ def test_the_hertz_study_at_both_degrees_with_a_setting(tmp_path):
     assert all(row["approach"] == pytest.approx(0.1, rel=0.1) for row in forced)  # pressed by the F of the 0.1 approach
     readme = (tmp_path / "both" / "README.md").read_text()
     assert "--orders 1,2 --set 'body2.boundary.1.value=\"-0.1*min(t, 1)\"'" in readme
+
+
+def test_the_hertz_study_on_adapted_meshes(tmp_path):
+    """--adapt-targets: an adapt loop per case from the scene's meshes at n = pilot, whose pilot is
+    the graded ladder's run at that n (the same run: the same a, p0 and nodes); the estimate falls
+    to the target and p0 comes closer to Hertz's (at the approach 0.05, whose gap floor, 0.075 %, is
+    below the pilot's error); the report's tables and command say so."""
+    rows = hertz(tmp_path, levels=1, coarsest=4, orders=(2,), adapt_targets=(0.01,), pilot=4,
+                 settings={"body2.boundary.1.value": "-0.05*min(t, 1)"})
+    graded = {row["case"]: row for row in rows if row["mesh"] == "graded"}
+    for case in ("same", "dissimilar"):
+        loop = [row for row in rows if (row["mesh"], row["case"]) == ("adapted", case)]
+        pilot, last = loop[0], loop[-1]
+        assert pilot["cycle"] == 0 and len(loop) >= 2
+        for key in ("nodes1", "nodes2", "F", "aMoment", "p0Computed"):
+            assert pilot[key] == graded[case][key]
+        assert last["estimate"] <= 0.01 < pilot["estimate"]
+        assert last["errorP0"] < pilot["errorP0"] / 4
+    readme = (tmp_path / "README.md").read_text()
+    assert "--adapt-targets 0.01 --pilot 4" in readme and "## Adapted meshes" in readme
+    assert "| force | none | not run |" in readme  # its one run, n = 4, is the pilot's mesh

@@ -5,21 +5,9 @@ from pathlib import Path
 
 from orchestrate.adapt import CYCLES, NAME, adapt
 from orchestrate.arguments import parse_assignments
-from orchestrate.cli.options import add_force_argument, add_trust_geo, positive
+from orchestrate.cli.options import add_force_argument, add_trust_geo, fraction, positive
 
 HELP = "meshes designed from a pilot run's error estimate, run again until the estimate reaches a target"
-
-
-def fraction(text: str) -> float:
-    import argparse
-
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"{text}: give the relative estimate to reach, in (0, 1), e.g. 0.01")
-    return value
 
 
 def add_arguments(parser) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from orchestrate.arguments import parse_assignments
-from orchestrate.cli.options import add_force_argument, choices_list, positive
+from orchestrate.cli.options import add_force_argument, choices_list, fractions_list, positive
 from orchestrate.studies.hertz import NAME, hertz
 
 HELP = "Hertz line contact against the analytic solution, over mesh levels"
@@ -18,6 +18,11 @@ def add_arguments(parser) -> None:
                         help="contact-zone elements per unit length at level 0 (default 8)")
     parser.add_argument("--orders", type=choices_list(("1", "2")), default=("1",),
                         help="the displacements' degrees, comma-separated: each case at each (default 1)")
+    parser.add_argument("--adapt-targets", type=fractions_list, default=(), metavar="E1,E2,...",
+                        help="also run the cases same and dissimilar on adapted meshes: an `orchestrate adapt` loop "
+                             "per target (the relative estimate to reach, comma-separated, e.g. 0.02,0.01) and degree")
+    parser.add_argument("--pilot", type=positive, default=4,
+                        help="the adapt loops' pilot meshes, the scene's at this n (default 4)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="a scene value for every run, as run --set (e.g. a smaller approach, --set "
                              "'body2.boundary.1.value=\"-0.05*min(t, 1)\"'); not the meshes' n, the degree or "
@@ -32,6 +37,7 @@ def command(options) -> int:
 
     options.out = options.out or ("results/hertz-order" if "2" in options.orders else "results/hertz")
     hertz(options.out, options.levels, options.coarsest, progress=sys.stderr.isatty(), force=options.force,
-          orders=tuple(int(order) for order in options.orders), settings=parse_assignments(options.set, "--set"))
+          orders=tuple(int(order) for order in options.orders), settings=parse_assignments(options.set, "--set"),
+          adapt_targets=options.adapt_targets, pilot=options.pilot)
     print((Path(options.out) / "README.md").read_text())
     return 0

@@ -41,6 +41,25 @@ def at_least_two(text: str) -> int:
     return value
 
 
+def fraction(text: str) -> float:
+    """A relative estimate to reach, in (0, 1), for adapt's --target."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"{text}: give the relative estimate to reach, in (0, 1), e.g. 0.01")
+    return value
+
+
+def fractions_list(text: str) -> tuple[float, ...]:
+    """Distinct relative estimates, comma-separated, for --adapt-targets-like options."""
+    values = tuple(fraction(piece.strip()) for piece in text.split(","))
+    if len(set(values)) != len(values):
+        raise argparse.ArgumentTypeError(f"'{text}' lists a target twice")
+    return values
+
+
 def choices_list(allowed) -> callable:
     """A comma-separated list of distinct words among `allowed`, for --ladders-like options."""
     def parse(text: str) -> list[str]:

@@ -31,6 +31,10 @@ node counts those of the displacement (at degree 2 the vertices and the edges' m
 nodal forces λ_j = pressure × ∫ψ_j with the degree's weights (Simpson's at degree 2). --set
 changes the scene for every run (e.g. a smaller approach); the *force* case replaces body 2's
 boundary conditions, so a --set of them does not reach it.
+With --adapt-targets, the cases *same* and *dissimilar* also run on adapted meshes: an
+`orchestrate adapt` loop per target and degree from the scene's meshes at n = --pilot (each run
+with its estimate, nodes, a and p0); and for each case and degree the report gives the fewest
+nodes with which each mesh family holds a and p0 within 0.2 % of Hertz's.
 Writes hertz.csv, README.md, pressure.png and vonmises.png into --out (the runs are made in a
 temporary folder and removed).
 """
@@ -45,11 +49,12 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrate.adapt import adapt
 from orchestrate.freefem import REPO, InputError
 from orchestrate.manifest import displacement_nodes
 from orchestrate.outputs import claim_folder, created, refuse_folder, write_figure, write_text
 from orchestrate.progress import wanted
-from orchestrate.results import cell_field
+from orchestrate.results import cell_field, load_result
 from orchestrate.runner import run
 from orchestrate.scene import toml_value
 
@@ -59,7 +64,8 @@ RADIUS = 8.0  # R of meshes/hertz_cylinder.geo, which scenes/hertz.toml keeps
 CASES = {"same": {}, "dissimilar": {"body2.material.E": 600.0, "body2.material.nu": 0.2, "body2.material.eta": 3.0}}
 LOADED = "force"  # scenes/hertz.toml under a prescribed force instead of a prescribed approach
 STUDY_KEYS = ("body1.mesh.n", "body2.mesh.n", "output.images", "space.order")  # what the study sets per run
-COLUMNS = ["case", "order", "n", "nodes1", "nodes2", "F", "a", "aMoment", "aClosed", "p0", "p0Computed",
+COLUMNS = ["case", "order", "mesh", "n", "target", "cycle", "estimate", "nodes1", "nodes2", "F", "a", "aMoment",
+           "aClosed", "p0", "p0Computed",
            "errorA", "errorAClosed", "errorP0", "errorProfile", "meshA", "meshP0", "orderA", "orderP0",
            "approach", "pressedA", "pressedP0"]
 
@@ -146,11 +152,14 @@ def measure(result, radius: float) -> dict:
 
 
 def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | str = "auto",
-          force: bool = False, orders: tuple[int, ...] = (1,), settings: dict | None = None) -> list[dict]:
-    """The cases over the mesh levels at each degree of `orders`, into hertz.csv, README.md and the
-    figures in `out` (a new folder, or with `force` one this study wrote: outputs.py); settings:
-    scene values for every run (dotted keys, as run's overrides; not those the study sets);
-    progress: each run's bar, True, False or "auto" (where one can be seen: progress.py)."""
+          force: bool = False, orders: tuple[int, ...] = (1,), settings: dict | None = None,
+          adapt_targets: tuple[float, ...] = (), pilot: int = 4) -> list[dict]:
+    """The cases over the mesh levels at each degree of `orders`, and with `adapt_targets` the
+    cases same and dissimilar on adapted meshes (an adapt loop from n = `pilot` per target), into
+    hertz.csv, README.md and the figures in `out` (a new folder, or with `force` one this study
+    wrote: outputs.py); settings: scene values for every run (dotted keys, as run's overrides; not
+    those the study sets); progress: each run's bar, True, False or "auto" (where one can be seen:
+    progress.py)."""
     shown = wanted(progress)
     out = Path(out)
     settings = settings or {}
@@ -158,6 +167,9 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | 
     if taken:
         raise InputError(f"--set {taken[0]}: the study sets it for each run (--levels, --coarsest and --orders give the "
                          "meshes and degrees; no images)")
+    wrong = [target for target in adapt_targets if not 0 < target < 1]
+    if wrong:
+        raise InputError(f"--adapt-targets {wrong[0]:g}: give relative estimates in (0, 1), e.g. 0.02,0.01")
     refuse_folder(out, f"study {NAME}", force)  # now, not after the runs
     rows, finest = [], {}
     with tempfile.TemporaryDirectory(prefix="hertz-") as scratch:
@@ -171,19 +183,41 @@ def hertz(out: str | Path, levels: int = 4, coarsest: int = 8, progress: bool | 
                 for level in range(levels):
                     n = coarsest * 2 ** level
                     result = level_run(case, n, {**settings, **overrides})
-                    rows.append({"case": case, "order": order, "n": n, **measure(result, RADIUS), **node_counts(result)})
+                    rows.append({"case": case, "order": order, "mesh": "graded", "n": n, **measure(result, RADIUS),
+                                 **node_counts(result)})
                     finest[f"{case}, P{order}"] = (rows[-1], result)
                 mesh_errors([row for row in rows if (row["case"], row["order"]) == (case, order)])
             kept = {key: value for key, value in settings.items() if not key.startswith("body2.boundary")}
             for pressed in [row for row in rows if (row["case"], row["order"]) == ("same", order)]:
                 result = level_run(LOADED, pressed["n"], {**kept, **force_controlled(pressed["F"])})
-                row = {"case": LOADED, "order": order, "n": pressed["n"], **measure(result, RADIUS), **node_counts(result),
-                       "approach": approach(result)}
+                row = {"case": LOADED, "order": order, "mesh": "graded", "n": pressed["n"], **measure(result, RADIUS),
+                       **node_counts(result), "approach": approach(result)}
                 row["pressedA"] = abs(row["aMoment"] - pressed["aMoment"]) / pressed["aMoment"]
                 row["pressedP0"] = abs(row["p0Computed"] - pressed["p0Computed"]) / pressed["p0Computed"]
                 rows.append(row)
             mesh_errors([row for row in rows if (row["case"], row["order"]) == (LOADED, order)])
-        write(claim_folder(out, f"study {NAME}", FILES, force), rows, finest, levels, coarsest, orders, settings)
+        for order in orders:
+            for target in adapt_targets:
+                for case, overrides in CASES.items():
+                    rows += adapted(Path(scratch) / f"{case}-P{order}-adapt{target:g}", case, order, target, pilot,
+                                    {**settings, **overrides}, shown)
+        write(claim_folder(out, f"study {NAME}", FILES, force), rows, finest, levels, coarsest, orders, settings,
+              adapt_targets, pilot)
+    return rows
+
+
+def adapted(folder: Path, case: str, order: int, target: float, pilot: int, overrides: dict, progress) -> list[dict]:
+    """Each run of an adapt loop (orchestrate/adapt.py) from the scene's meshes at n = `pilot`:
+    its estimate, nodes, a and p0."""
+    loop = adapt(REPO / "scenes" / "hertz.toml", folder, target, progress=progress,
+                 overrides={**overrides, "body1.mesh.n": pilot, "body2.mesh.n": pilot, "output.images": False,
+                            "space.order": order})
+    rows = []
+    for cycle in loop:
+        result = load_result(folder / cycle["folder"])
+        rows.append({"case": case, "order": order, "mesh": "adapted", "n": pilot, "target": target,
+                     "cycle": cycle["cycle"], "estimate": cycle["relative"], **measure(result, RADIUS),
+                     **node_counts(result)})
     return rows
 
 
@@ -205,7 +239,7 @@ def node_counts(result) -> dict:
 
 
 def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int, orders: tuple[int, ...] = (1,),
-          settings: dict | None = None) -> None:
+          settings: dict | None = None, adapt_targets: tuple[float, ...] = (), pilot: int = 4) -> None:
     """The table, the report and the figures; `finest` maps each case and degree to its finest
     (row, result)."""
     with created(out / "hertz.csv", newline="") as handle:
@@ -214,24 +248,28 @@ def write(out: Path, rows: list[dict], finest: dict, levels: int, coarsest: int,
         writer.writerows(rows)
     plot_pressure(out / "pressure.png", finest)
     plot_von_mises(out / "vonmises.png", finest[f"same, P{orders[-1]}"][1])
-    write_text(out / "README.md", report(rows, levels, coarsest, orders, settings or {}))
+    write_text(out / "README.md", report(rows, levels, coarsest, orders, settings or {}, adapt_targets, pilot))
 
 
-def reproduce_line(levels: int, coarsest: int, orders: tuple[int, ...], settings: dict) -> str:
+def reproduce_line(levels: int, coarsest: int, orders: tuple[int, ...], settings: dict,
+                   adapt_targets: tuple[float, ...] = (), pilot: int = 4) -> str:
     line = f"python -m orchestrate study {NAME} --levels {levels} --coarsest {coarsest}"
     if orders != (1,):
         line += " --orders " + ",".join(map(str, orders))
+    if adapt_targets:
+        line += " --adapt-targets " + ",".join(f"{target:g}" for target in adapt_targets) + f" --pilot {pilot}"
     return line + "".join(f" --set {shlex.quote(f'{key}={toml_value(value)}')}" for key, value in settings.items())
 
 
-def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...] = (1,), settings: dict | None = None) -> str:
+def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...] = (1,), settings: dict | None = None,
+           adapt_targets: tuple[float, ...] = (), pilot: int = 4) -> str:
     def cell(row, key, digits=4):
         value = row.get(key, "")
         return "" if value == "" else f"{value:.{digits}g}"
 
     lines = ["# Hertz line contact against the analytic solution", "",
              "Reproduce (from the repository root):", "", "```sh",
-             reproduce_line(levels, coarsest, orders, settings or {}), "```", "",
+             reproduce_line(levels, coarsest, orders, settings or {}, adapt_targets, pilot), "```", "",
              "```text", (__doc__ or "").split("\n\n", 1)[1].split("Writes")[0].strip(), "```", "",
              gap_floor(rows), "",
              "Cases: *same* is scenes/hertz.toml (E = 200, ν = 0.3 for both bodies); *dissimilar* gives the "
@@ -247,7 +285,7 @@ def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...]
     def percent(row, key):
         return f"{100 * row[key]:.3f} %" if key in row else ""
 
-    for row in rows:
+    for row in (row for row in rows if row["mesh"] == "graded"):
         lines.append(f"| {row['case']} | P{row['order']} | {row['n']} | {row['nodes1']}, {row['nodes2']} | {cell(row, 'F')} | "
                      f"{cell(row, 'a')} | {cell(row, 'aMoment')} | {percent(row, 'errorA')} | "
                      f"{cell(row, 'aClosed')} | {percent(row, 'errorAClosed')} | {cell(row, 'p0')} | "
@@ -255,8 +293,55 @@ def report(rows: list[dict], levels: int, coarsest: int, orders: tuple[int, ...]
                      f"{percent(row, 'meshA')} | {percent(row, 'meshP0')} | {cell(row, 'orderA', 3)} | "
                      f"{cell(row, 'orderP0', 3)} | {cell(row, 'approach')} | {percent(row, 'pressedA')} | "
                      f"{percent(row, 'pressedP0')} |")
+    lines += adapted_report([row for row in rows if row["mesh"] == "adapted"], pilot, percent)
+    lines += fewest_nodes(rows, orders)
     lines += ["", "![pressure](pressure.png)", "", "![von Mises](vonmises.png)", ""]
     return "\n".join(lines)
+
+
+def adapted_report(rows: list[dict], pilot: int, percent) -> list[str]:
+    if not rows:
+        return []
+    lines = ["", "## Adapted meshes", "",
+             f"Cases *same* and *dissimilar* through `orchestrate adapt scenes/hertz.toml --target E` (the study's --set "
+             f"too) from the scene's meshes at n = {pilot}: the pilot (cycle 0), then meshes each body's .geo makes "
+             "with the sizes the Zienkiewicz–Zhu estimate of the previous run designs, until the estimate η/‖u_h‖_V "
+             "is at most the target (docs/usage.md, \"Adapted meshes\").", "",
+             "| case | degree | target | cycle | nodes (block, cylinder) | estimate | error a | error p0 | profile error |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {row['case']} | P{row['order']} | {row['target']:g} | {row['cycle']} | {row['nodes1']}, {row['nodes2']} | "
+              f"{percent(row, 'estimate')} | {percent(row, 'errorA')} | {percent(row, 'errorP0')} | "
+              f"{percent(row, 'errorProfile')} |" for row in rows]
+    return lines
+
+
+WITHIN = 0.002  # the accuracy the fewest-nodes table asks of a and p0 (relative)
+
+
+def fewest_nodes(rows: list[dict], orders: tuple[int, ...]) -> list[str]:
+    """Per case and degree, the run with the fewest nodes (both bodies) whose a and p0 are both
+    within WITHIN of Hertz's, on each mesh family; and P2's over P1's, the best family of each."""
+    lines = ["", f"## Fewest nodes with a and p0 within {100 * WITHIN:g} %", "",
+             "Nodes of both bodies; each family's run with the fewest whose a (moment) and p0 are both that close to "
+             "Hertz's values (the model's floor above included).", "",
+             "| case | " + " | ".join(f"P{order} graded | P{order} adapted" for order in orders)
+             + (" | P2 / P1 |" if orders == (1, 2) else " |"),
+             "|---|" + "---|---|" * len(orders) + ("---|" if orders == (1, 2) else "")]
+    for case in dict.fromkeys(row["case"] for row in rows):
+        best, cells = {}, []
+        for order in orders:
+            for mesh in ("graded", "adapted"):
+                family = [row for row in rows if (row["case"], row["order"], row["mesh"]) == (case, order, mesh)]
+                good = [row for row in family if row["errorA"] <= WITHIN and row["errorP0"] <= WITHIN]
+                run = min(good, key=lambda row: row["nodes1"] + row["nodes2"], default=None)
+                cells.append("not run" if not family else "none" if run is None else
+                             f"{run['nodes1'] + run['nodes2']} (a {100 * run['errorA']:.3f} %, p0 {100 * run['errorP0']:.3f} %)")
+                if run is not None:
+                    best[order] = min(best.get(order, math.inf), run["nodes1"] + run["nodes2"])
+        if orders == (1, 2):
+            cells.append(f"{best[2] / best[1]:.2f}" if len(best) == 2 else "-")
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def gap_floor(rows: list[dict]) -> str:
