@@ -146,7 +146,7 @@ def unbounded_field(name: str) -> Key:
     def validate(value):
         if value == "inf":
             return value
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not -1e308 < value < 1e308 \
                 or value < low or (value == low and "gt" in parameter.bounds):
             raise ValueError(f'give a number in {parameter.range} or "inf"')
         return float(value)

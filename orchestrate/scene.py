@@ -415,8 +415,8 @@ def _output_times(value):
     if not isinstance(value, list) or not value:
         raise ValueError('give "final", "all", "none" or a list of times in (0, T]')
     for time in value:
-        if isinstance(time, bool) or not isinstance(time, (int, float)) or not math.isfinite(time):
-            raise ValueError(f"{time!r} is not a time: give numbers in (0, T]")
+        if isinstance(time, bool) or not isinstance(time, (int, float)) or not -1e308 < time < 1e308:
+            raise ValueError(f"{repr(time)[:40]} is not a time: give numbers in (0, T]")
     return [float(time) for time in value]
 
 

@@ -282,6 +282,8 @@ class Tagged(Check):
         self.kind = " or ".join(table.__name__ for table in tables.values())
 
     def __call__(self, value, context):
+        if isinstance(value, tuple(self.tables.values())):
+            return value
         if not isinstance(value, dict):
             raise problem("model_attributes_type", "Input should be a valid dictionary or object to extract fields from",
                           value)

@@ -269,3 +269,22 @@ def test_the_hertz_study_on_adapted_meshes(tmp_path):
     readme = (tmp_path / "README.md").read_text()
     assert "--adapt-targets 0.01 --pilot 4" in readme and "## Adapted meshes" in readme
     assert "| force | none | not run |" in readme  # its one run, n = 4, is the pilot's mesh
+
+
+@pytest.mark.unit
+def test_the_fewest_nodes_table_counts_designs_not_pilots():
+    """The table's cell of a family is its run with the fewest nodes of both bodies among those
+    whose a and p0 are both within 0.2 %; an adapt loop's pilot (the scene's own mesh) is none of
+    its designs; P2 / P1 divides the best of each degree over both families."""
+    from orchestrate.studies.hertz import fewest_nodes
+
+    def row(order, mesh, nodes, a, p0, cycle=None):
+        return {"case": "same", "order": order, "mesh": mesh, "nodes1": nodes, "nodes2": nodes, "errorA": a,
+                "errorP0": p0, **({} if cycle is None else {"cycle": cycle})}
+
+    rows = [row(1, "graded", 100, 0.001, 0.001), row(1, "graded", 50, 0.001, 0.003),
+            row(1, "adapted", 10, 0.001, 0.001, cycle=0), row(1, "adapted", 80, 0.0015, 0.0005, cycle=1),
+            row(2, "graded", 120, 0.001, 0.001), row(2, "adapted", 20, 0.002, 0.001, cycle=1)]
+    line = fewest_nodes(rows, (1, 2))[-1]
+    assert line == ("| same | 200 (a 0.100 %, p0 0.100 %) | 160 (a 0.150 %, p0 0.050 %) | 240 (a 0.100 %, p0 0.100 %) "
+                    "| 40 (a 0.200 %, p0 0.100 %) | 0.25 |")

@@ -310,6 +310,8 @@ def test_a_partial_that_is_not_a_run_s_folder_is_refused(tmp_path, kind):
     ({"title": "x" * 501}, ["title", "at most 500"]),
     ({"body1.boundary.1.fy": "+".join(["x"] * 1000)}, ["deeper than 200 operations"]),
     ({"body1.boundary.1.fy": 10 ** 400}, ["not a finite double"]),
+    ({"output.times": [10 ** 400]}, ["output.times", "is not a time"]),
+    ({"glue.debondMobility": 10 ** 400}, ["glue.debondMobility", 'or "inf"']),
     ({"body1.mesh.parameters": {"nn": True}}, ["parameters.nn", "valid number"]),
     ({"body2.mesh.structured": True, "body2.mesh.geo": "meshes/base.geo"}, ["structured", "base.geo has no structured"]),
     ({"output.times": [True]}, ["output.times"]),
