@@ -4,12 +4,14 @@ At every time either run saved its state (state_NNNN.txt, output.fields "state")
 interval both cover, edp/tools/errors.edp measures ‖u_A − u_B‖_V, ‖ζ_A − ζ_B‖_L² and
 ‖β_A − β_B‖_L²(Γ_C) (docs/model.md section 11 for the symbols). A run that saved no state at one
 of those times is interpolated linearly in time between its neighbouring states (the report
-marks it). The other run's fields are put into the reference's spaces (the reference: the run
-with more displacement nodes, then the higher degree, then more steps) and integrated on its
-meshes; the figures are exact when the meshes are nested (every triangle of the other's mesh is a
-union of triangles of the reference's: the same mesh, or the structured family under n → 2n) and
-the other's displacements are of a degree not above the reference's (P1 in P2, not P2 in P1),
-otherwise the interpolation error of the other run is part of them, and the report says which.
+marks it). The integrals are taken on the reference's meshes (the reference: the run with more
+displacement nodes, then the higher degree, then more steps), the other run's strains (exact in
+their own space on its mesh) and ζ evaluated at their quadrature points; the figures are exact
+when the meshes are nested (every triangle of the other's mesh is a union of triangles of the
+reference's: the same mesh, or the structured family under n → 2n) and the other's displacements
+are of a degree not above the reference's (P1 in P2, not P2 in P1); otherwise the reference
+triangles that straddle the other's element edges integrate a jump, a small error without a
+systematic sign (docs/model-choices.md, "Error norms between meshes"), and the report says which.
 The two runs must cover the same bodies: their meshes may differ, their domains may not.
 
 The histories (history.csv) of both runs are drawn over each other in history.png of the
@@ -267,8 +269,8 @@ class Comparison:
                   for body, mesh in enumerate(self.meshes, 1)]
         lines.append(f"integrated on the meshes of {self.reference.upper()} ({reference.folder.name}); "
                      + ("the other's meshes nest in them: the figures are exact" if self.nested else
-                        "the other's meshes do not nest in them, or its degree is higher: its interpolation error "
-                        "is part of the figures"))
+                        "the other's meshes do not nest in them, or its degree is higher: the reference triangles "
+                        "across its element edges err a little in the figures"))
         lines.append(f"relative: to the norm of {self.reference.upper()} at that time; in the row max, the largest "
                      "distance over the largest norm")
         interpolated = any(row["interpolated"] for row in self.rows)

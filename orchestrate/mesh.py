@@ -20,9 +20,9 @@ beside it.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
-import functools
 import math
 import os
 import re

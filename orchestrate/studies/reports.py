@@ -37,8 +37,8 @@ def convergence_report(table: list[dict], observed: dict[str, dict], command: st
              "time ladders, one per scheme on one mesh, share one reference run: the most accurate scheme listed "
              "at twice their finest N. Norms as in Theorem 2.1 of the seed: ‖·‖_V = (Σ_ℓ ∫ ε:ε)^½ for u, L² for ζ "
              "on the bodies and for β on Γ_C. Nested structured meshes make every norm exact (edp/tools/errors.edp); "
-             "on meshes that are not nested (a graded family) the interpolation onto the reference mesh is part of "
-             "each figure. The instants are each ladder's coarsest level's, shared by its levels.",
+             "on meshes that are not nested (a graded family) each run's strains are evaluated at the reference mesh's "
+             "quadrature points, and the reference triangles across its element edges err a little in each figure. The instants are each ladder's coarsest level's, shared by its levels.",
              "",
              "Reading the rates: an error against a reference is biased low next to it, because the reference has "
              "an error of its own, so rates against the reference can come out high at the fine end; distances "
@@ -275,7 +275,7 @@ def bench_report(rows: list[dict], solvers: list[dict], models: dict, command: s
              "machine (its quartiles in brackets; the run's mean step and mean set, timed at other moments, "
              "drift apart by ±20 % here). K and the damage matrices are factorized in the set-up. "
              "*memory*: FreeFem++'s peak resident memory after set-up and at the end of the run (MB). "
-             "*error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V, each run interpolated onto the reference's meshes; "
+             "*error* = ‖u(T) − u_ref(T)‖_V / ‖u_ref(T)‖_V on the reference's meshes, each run's strains evaluated at their quadrature points; "
              "*error vs check* the same against the check. Runs under 20 s are the fastest of 3 (this machine's "
              "timings drift by ±20 %).", "",
              f"**Reference:** the graded mesh two levels finer than the finest measured at P{reference['degree']}, "
