@@ -13,10 +13,12 @@ an interruption (SIGINT, SIGTERM, SIGHUP) ends FreeFem++'s and gmsh's process gr
 `<out>.partial` with a file INTERRUPTED. `--force` replaces only a run folder, never through a
 symbolic link.
 
-Restart. The driver checkpoints its state (edp/lib/checkpoint.idp, every output.checkpointSeconds
-of wall time by default); `resume=True` (`run --resume`, and every sweep) continues the run in
-`<out>.partial` from its newest checkpoint when that folder was made from the same inputs
-(inputs.json), and gives the files an uninterrupted run gives, to the bit.
+Restart. The driver checkpoints its state (edp/lib/checkpoint.idp: by default after every
+twentieth of the steps, at least 2 s apart); `resume=True` (`run --resume`, and every sweep)
+continues the run in `<out>.partial` from its newest checkpoint when that folder was made from the
+same inputs (inputs.json), and gives the files an uninterrupted run gives, to the bit. Computed
+steps are never deleted unasked: a partial folder that cannot be continued, or a failed run beside
+<out>, is kept and the run refused saying what to do, unless `force`.
 """
 from __future__ import annotations
 
@@ -258,28 +260,64 @@ def checkpoint_step(partial: Path) -> int:
     return max([0] + [step for step, _ in sealed_checkpoints(partial)])
 
 
+def steps_done(partial: Path) -> int:
+    """The steps an interrupted run in `partial` computed: history.csv's rows (0 without one)."""
+    try:
+        with open(partial / "history.csv", "rb") as history:
+            return max(sum(1 for _ in history) - 1, 0)
+    except OSError:
+        return 0
+
+
 def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
     """Is `<out>.partial` to be continued from its checkpoint? Yes when asked (resume) and it holds
-    a checkpoint of a run of these inputs. A checkpoint is never discarded unasked: one of other
-    inputs with resume, or any without resume, is refused unless force says to start over."""
+    a checkpoint of a run of these inputs. Computed steps are never discarded unasked: a folder
+    holding any (with or without a checkpoint) that cannot be continued is refused, saying why and
+    what to do, unless force says to start over; one holding none (a run stopped while meshing) is
+    made anew."""
     found = sealed_checkpoints(partial)
-    if not found:
+    done = steps_done(partial)
+    if not found and not done:
         return False
-    step = max(step for step, _ in found)
     try:
         same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
     except (OSError, ValueError, KeyError):
         same = False
-    same = same and {identity for _, identity in found} == {inputs["digest"]}
+    same = same and bool(found) and {identity for _, identity in found} == {inputs["digest"]}
     if force and not (resume and same):
         return False
+    kept = f"its files stay there: --force to start over (they are then deleted), or move {partial.name} away to keep them"
+    if not found:
+        raise RunError(f"{partial} holds an interrupted run of {done} computed steps and no checkpoint to continue from "
+                       f"(output.checkpointEvery sets how often a run writes one); {kept}")
+    step = max(step for step, _ in found)
     if not resume:
-        raise RunError(f"{partial} holds an interrupted run with a checkpoint at step {step}: --resume to continue it, "
-                       "--force to start over")
+        raise RunError(f"{partial} holds an interrupted run with a checkpoint at step {step}: --resume to continue it; "
+                       f"{kept}")
     if not same:
-        raise RunError(f"{partial} holds a checkpoint of a run of other inputs: run without --resume and with --force "
-                       "to start over")
+        raise RunError(f"{partial} holds a checkpoint of a run of other inputs (another scene, or another version of the "
+                       f"solver): it cannot be continued with this one; {kept}")
     return True
+
+
+def refuse_failed(failed: Path, force: bool) -> None:
+    """A failed run beside <out> is kept unless force: a new run would replace it."""
+    if force or failed.is_symlink() or not os.path.lexists(failed):
+        return
+    refuse_foreign(failed)
+    raise RunError(f"{failed} holds a run that failed ({failure_of(failed)}); a failed run cannot be continued, and a new "
+                   f"run into {failed.name.removesuffix('.failed')} would replace it: move it away to keep it, or pass "
+                   "--force to replace it")
+
+
+def failure_of(folder: Path) -> str:
+    """The reason a run.log gives for a failure: its last ERROR line, cut to a readable length."""
+    try:
+        lines = [line for line in (folder / "run.log").read_text(errors="replace").splitlines() if line.startswith("ERROR:")]
+    except OSError:
+        lines = []
+    reason = lines[-1].removeprefix("ERROR:").strip() if lines else "run.log gives no reason"
+    return reason if len(reason) <= 160 else reason[:157] + "..."
 
 
 def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dict | None = None, *,
@@ -300,6 +338,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     refuse_existing(out, force)
     inputs = inputs_of(scene)
     failed = out.with_name(out.name + ".failed")
+    refuse_failed(failed, force)
     started = time.perf_counter()
     restart = False
 
@@ -337,6 +376,11 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
             (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
             raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
         except (SolverError, meshing.MeshError, InputError, TooLarge, IncompleteRun) as error:
+            if restart and not (isinstance(error, SolverError) and error.returncode in STEP_FAILURES):
+                keep_interrupted(partial, str(error))  # it did not continue: the interrupted run is as it was
+                raise RunError(f"{partial} could not be continued from its checkpoint at step {checkpoint_step(partial)}: "
+                               f"{error}. Its files stay there: --resume again once that is mended, --force to start "
+                               f"over (they are then deleted), or move {partial.name} away to keep them") from None
             fail_into(partial, failed, str(error))
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
@@ -348,6 +392,18 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     from orchestrate.results import Result
 
     return Result(out)  # built and checked above (build, write_manifest): not read a second time
+
+
+# The driver's exit codes of a step that failed (docs/usage.md, "Exit codes"): a resumed run that
+# stops so has continued, and is a failed run; any other failure leaves the interrupted run as it was.
+STEP_FAILURES = (4, 5)
+
+
+def keep_interrupted(partial: Path, reason: str) -> None:
+    """An interrupted run that could not be continued: why, at the end of its run.log and in INTERRUPTED."""
+    with open(partial / "run.log", "a") as log:
+        log.write(f"\nERROR: resuming failed: {reason}\n")
+    (partial / "INTERRUPTED").write_text(f"This run was interrupted, and resuming it failed: {reason}\n")
 
 
 def fail_into(partial: Path, failed: Path, reason: str) -> None:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import signal
 import subprocess
 import sys
@@ -65,6 +66,35 @@ def resealed(checkpoint: Path, change) -> None:
     body = "".join(line + "\n" for line in lines)
     step = lines[0].split()[1]
     checkpoint.write_text(body + f"seal {hashlib.sha256(body.encode()).hexdigest()}\nend {step}\n")
+
+
+def rows(folder: Path) -> int:
+    """The rows of a run folder's history.csv (-1 without one)."""
+    try:
+        return (folder / "history.csv").read_bytes().count(b"\n") - 1
+    except FileNotFoundError:
+        return -1
+
+
+def same_results(first: Path, second: Path) -> None:
+    """Every result file of `first` is in `second` with the same bytes; history.csv without its
+    last column, the measured stepSeconds."""
+    def results(folder: Path) -> list[str]:
+        return sorted(path.name for path in folder.iterdir() if path.suffix in (".vtu", ".pvd") or path.name.startswith("state_"))
+
+    names = results(first)
+    assert names == results(second)
+    for name in names:
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    history = [[line.rsplit(",", 1)[0] for line in (folder / "history.csv").read_text().splitlines()]
+               for folder in (first, second)]
+    assert history[0] == history[1]
+
+
+def cli_args(overrides: dict) -> list[str]:
+    """--set options of `python -m orchestrate` for scene overrides (values as TOML writes them)."""
+    return [item for key, value in overrides.items()
+            for item in ("--set", f"{key}={json.dumps(value) if not isinstance(value, bool) else str(value).lower()}")]
 
 
 TIERS = ("unit", "solver", "physics", "runs")  # pyproject.toml's markers: what each test guards

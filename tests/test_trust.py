@@ -115,7 +115,6 @@ def test_a_checkout_whose_path_has_hash_semicolon_backslash_quotes_and_spaces_ru
     ("body2.mesh.contactLabel", 9, ["body2.mesh.contactLabel = 9"]),
     ("body2.mesh.contactLabel", [3, 9], ["body2.mesh.contactLabel = [3, 9]", "no boundary label 9"]),
 ])
-@pytest.mark.unit
 def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(tmp_path, key, value, words):
     with pytest.raises(SceneError) as error:
         run(PAPER, tmp_path / "run", {**COARSE, key: value})

@@ -1,0 +1,167 @@
+"""A resume that always works or says why, and never deletes (issue 47, item 1).
+
+Runs of every kind a user starts (each output mode, each scheme, degree 2, a size-field mesh, the
+rate-independent glue, a start in substeps) are killed at a step drawn at random and resumed with
+`orchestrate run --resume`: their files are those of the same run uninterrupted, to the bit. A
+folder that cannot be continued keeps every file it holds and the refusal says what to do; a
+failed run beside the output folder is kept unless --force; by default a run that lasts more than
+a few seconds has checkpoints (a twentieth of its steps apart)."""
+import json
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import cli_args, resealed, rows, same_results
+from orchestrate import run
+from orchestrate.freefem import REPO
+from orchestrate.runner import RunError, checkpoint_step, sealed_checkpoints
+
+pytestmark = pytest.mark.runs
+
+PAPER = REPO / "scenes" / "paper.toml"
+STEPS = 500
+BASE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": STEPS, "output.images": False,
+        "output.checkpointEvery": 25}
+
+
+def size_view(path: Path) -> Path:
+    """A gmsh view of element sizes over both paper bodies (0.6 at every corner of a large square)."""
+    path.write_text('View "sizes" {\nST(-1,-7,0,7,-7,0,7,7,0){0.6,0.6,0.6};\nST(-1,-7,0,7,7,0,-1,7,0){0.6,0.6,0.6};\n};\n')
+    return path
+
+
+KINDS = {
+    "final": {},
+    "all": {"output.times": "all", "output.fields": ["bodies", "contact"], "time.N": 150},  # 3 .pvd entries a step
+    "none": {"output.times": "none"},
+    "list": {"output.times": [0.25, 0.5, 0.75, 1.0], "output.fields": ["bodies", "stress", "contact", "state"]},
+    "euler": {"time.scheme": "euler"},
+    "bdf2 rate-independent": {"time.scheme": "bdf2", "glue.debondMobility": "inf"},
+    "substeps": {"time.scheme": "bdf2", "time.startSteps": 2, "time.startSubsteps": 4},
+    "degree 2": {"space.order": 2, "time.scheme": "semi-implicit", "time.N": 300},
+    "size field": {"body1.mesh.sizes": "SIZES", "time.scheme": "semi-implicit"},
+}
+
+
+def command(out: Path, overrides: dict) -> list[str]:
+    return [sys.executable, "-m", "orchestrate", "run", str(PAPER), *cli_args(overrides), "--out", str(out)]
+
+
+def killed(out: Path, overrides: dict, at: int) -> None:
+    """`orchestrate run` into `out`, stopped (SIGSTOP, then SIGKILL to its group) once its history
+    has at least `at` rows."""
+    process = subprocess.Popen(command(out, overrides), cwd=REPO, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL, start_new_session=True)
+    partial = out.with_name(out.name + ".partial")
+    deadline = time.time() + 120
+    while process.poll() is None and rows(partial) < at and time.time() < deadline:
+        time.sleep(0.002)
+    subprocess.run(["pkill", "-KILL", "-g", str(process.pid)], check=False)
+    process.wait()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_run_killed_at_a_random_step_and_resumed_is_the_uninterrupted_run(tmp_path, kind):
+    overrides = {**BASE, **KINDS[kind]}
+    if "body1.mesh.sizes" in overrides:
+        overrides["body1.mesh.sizes"] = str(size_view(tmp_path / "sizes.pos"))
+    steps = overrides["time.N"]
+    at = random.Random(kind).randint(steps // 3 + 10, steps * 8 // 10)  # "all": its .pvd entries then exceed N
+    fresh = run(PAPER, tmp_path / "fresh", overrides)
+    out = tmp_path / "run"
+    killed(out, overrides, at)
+    partial = tmp_path / "run.partial"
+    checkpoint = checkpoint_step(partial)
+    assert 0 < rows(partial) < steps and checkpoint > 0, f"killed at {rows(partial)} of {steps}"
+    resumed = subprocess.run([*command(out, overrides), "--resume"], cwd=REPO, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    assert json.loads((out / "run.json").read_text())["restartedFrom"] == checkpoint
+    same_results(fresh.folder, out)
+    assert rows(out) == steps
+
+
+def kill_without_checkpoint(out: Path, at: int = 200) -> Path:
+    killed(out, {**BASE, "output.checkpointEvery": STEPS}, at)
+    partial = out.with_name(out.name + ".partial")
+    assert rows(partial) >= at and not sealed_checkpoints(partial)
+    return partial
+
+
+def listing(folder: Path) -> dict[str, bytes]:
+    return {path.name: path.read_bytes() for path in folder.iterdir()}
+
+
+def test_an_interrupted_run_without_a_checkpoint_is_kept_and_the_refusal_says_what_to_do(tmp_path):
+    out = tmp_path / "run"
+    partial = kill_without_checkpoint(out)
+    before = listing(partial)
+    for resume in (True, False):
+        with pytest.raises(RunError, match=r"holds an interrupted run of \d+ computed steps and no checkpoint.*--force to "
+                                            r"start over.*move run.partial away"):
+            run(PAPER, out, {**BASE, "output.checkpointEvery": STEPS}, resume=resume)
+        assert listing(partial) == before
+    assert rows(run(PAPER, out, BASE, force=True).folder) == STEPS  # only an explicit --force starts over
+
+
+def test_a_resume_the_driver_refuses_leaves_the_interrupted_run_where_it_was(tmp_path):
+    out = tmp_path / "run"
+    killed(out, BASE, 400)
+    partial = tmp_path / "run.partial"
+    for name in ("checkpoint-a.txt", "checkpoint-b.txt"):  # a layout this driver does not know, sealed again
+        resealed(partial / name, lambda lines: [line.replace("state-", "state-x") for line in lines])
+    # the driver's records of this attempt (params_used.json, run.json), its scratch files and the log aside
+    before = {name: data for name, data in listing(partial).items()
+              if name not in ("run.log", "params_used.json", "run.json") and not name.endswith(".tmp")}
+    with pytest.raises(RunError, match="could not be continued from its checkpoint at step .*kept another state.*"
+                                       "--resume again once that is mended, --force to start over"):
+        run(PAPER, out, BASE, resume=True)
+    after = listing(partial)
+    assert not (tmp_path / "run.failed").exists() and not out.exists()
+    for name, data in before.items():  # the runner's own set-up files are written again, the same
+        assert after[name] == data, name
+    assert "resuming it failed" in after["INTERRUPTED"].decode() and b"resuming failed" in after["run.log"]
+
+
+def test_a_failed_run_is_kept_unless_force_replaces_it(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(Exception, match="contactMaxIt"):
+        run(PAPER, out, {**BASE, "solver.contactMaxIt": 1})
+    failed = tmp_path / "run.failed"
+    before = listing(failed)
+    for resume in (False, True):
+        with pytest.raises(RunError, match="run.failed holds a run that failed .*contactMaxIt.*move it away to keep it, "
+                                           "or pass --force"):
+            run(PAPER, out, BASE, resume=resume)
+        assert listing(failed) == before
+    run(PAPER, out, BASE, force=True)
+    assert not failed.exists()
+
+
+def test_by_default_a_run_of_several_seconds_has_checkpoints_a_twentieth_of_its_steps_apart(tmp_path):
+    """The default (output.checkpointEvery = 0): checkpoints at least 2 s apart and after every
+    N/20 steps; a run killed after more than 2 s of steps has one, at a multiple of N/20 at most."""
+    overrides = {**BASE, "body1.mesh.n": 24, "body2.mesh.n": 32, "time.N": 2000, "output.checkpointEvery": 0}
+    out = tmp_path / "run"
+    process = subprocess.Popen(command(out, overrides), cwd=REPO, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL, start_new_session=True)
+    partial = tmp_path / "run.partial"
+    started = None
+    while process.poll() is None:
+        if rows(partial) > 0 and started is None:
+            started = time.monotonic()
+        if started is not None and time.monotonic() - started > 3 and sealed_checkpoints(partial):
+            break
+        time.sleep(0.01)
+    subprocess.run(["pkill", "-KILL", "-g", str(process.pid)], check=False)
+    process.wait()
+    steps = [step for step, _ in sealed_checkpoints(partial)]
+    assert steps and rows(partial) < 2000, "no checkpoint within the run's first seconds"
+    assert all(step >= 100 for step in steps)  # at least N/20 steps after the loop's start and apart
+    if len(steps) == 2:
+        assert abs(steps[0] - steps[1]) >= 100
+    assert run(PAPER, out, overrides, resume=True).folder == out
