@@ -22,18 +22,22 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import io
+import json
 import math
 import tempfile
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from orchestrate.freefem import REPO, run_script
-from orchestrate.manifest import STATE_ARRAYS, read_state, write_state
+from orchestrate.manifest import FACTS, STATE_ARRAYS, parse_state, write_state
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
+from orchestrate.scene import RESULT_FREE
 
 NAME = "compare"  # the command, as its folders' made-by.json records it
 
@@ -46,22 +50,20 @@ def same_instant(t: float, u: float) -> bool:
     return abs(t - u) <= SAME_TIME * max(abs(t), abs(u))
 
 
-def state_times(result: Result) -> list[tuple[float, Path]]:
-    """(t, file) of every state the run saved (those its manifest lists: no other file of the
-    folder), in time order (t is each file's first number)."""
-    found = []
-    for path in (result.folder / name for name in result.files if name.startswith("state_")):
-        with open(path) as handle:
-            found.append((float(handle.read(64).split()[0]), path))
-    return sorted(found)
+def state_times(result: Result) -> list[tuple[float, str]]:
+    """(t, file name) of every state the run saved (those its manifest lists: no other file of the
+    folder), in time order (t is each file's first number, of the bytes the manifest records)."""
+    return sorted((float(result.read(name).split(maxsplit=1)[0]), name) for name in result.files if name.startswith("state_"))
 
 
 def paired_states(a: Result, b: Result, scratch: Path) -> list[tuple[Path, Path, str]]:
     """(state of a, state of b, which run was interpolated: "A", "B" or "") at every time either
-    run saved its state within the interval both cover. Times within SAME_TIME of each other are one
-    instant (output times are multiples of each run's k, to round-off), as errors.edp takes them; at a
-    time one run did not save, its state is the linear interpolation in time of its two neighbours,
-    written to `scratch`."""
+    run saved its state within the interval both cover, each a file of `scratch`: a saved state as
+    its run's manifest records it (Result.snapshot), so that the tools read one version of each run.
+    Times within SAME_TIME of each other are one instant (output times are multiples of each run's k,
+    to round-off), as errors.edp takes them; at a time one run did not save, its state is the linear
+    interpolation in time of its two neighbours."""
+    runs = {"A": a, "B": b}
     times = {"A": state_times(a), "B": state_times(b)}
     missing = [str(run.folder) for run, saved in ((a, times["A"]), (b, times["B"])) if not saved]
     if missing:
@@ -80,10 +82,11 @@ def paired_states(a: Result, b: Result, scratch: Path) -> list[tuple[Path, Path,
         files, interpolated = [], ""
         for side, saved in times.items():
             nearest = min(saved, key=lambda entry: abs(entry[0] - t))
+            target = scratch / f"{side}_{j:04d}.txt"
             if same_instant(nearest[0], t):
-                files.append(nearest[1])
+                files.append(runs[side].snapshot(nearest[1], target))
             else:
-                files.append(interpolated_state(saved, t, scratch / f"{side}_{j:04d}.txt"))
+                files.append(interpolated_state(runs[side], saved, t, target))
                 interpolated = side
         pairs.append((files[0], files[1], interpolated))
     return pairs
@@ -104,15 +107,15 @@ def degree(result: Result) -> int:
     return order
 
 
-def interpolated_state(saved: list[tuple[float, Path]], t: float, out: Path) -> Path:
+def interpolated_state(result: Result, saved: list[tuple[float, str]], t: float, out: Path) -> Path:
     """The state at t between two saved states of one run (linear in time: second order), written in
     the format of edp/lib/stateFile.idp. The trace coordinates s are the run's own and do not change
     with time."""
     after = next(j for j, (time, _) in enumerate(saved) if time > t)
-    (t0, path0), (t1, path1) = saved[after - 1], saved[after]
-    first, second = read_state(path0), read_state(path1)
+    (t0, name0), (t1, name1) = saved[after - 1], saved[after]
+    first, second = parse_state(result.read(name0)), parse_state(result.read(name1))
     if not np.array_equal(first["s"], second["s"]):
-        raise RuntimeError(f"{path0} and {path1}: their trace coordinates differ, not states of one run")
+        raise RuntimeError(f"{result.folder}: {name0} and {name1}: their trace coordinates differ, not states of one run")
     weight = (t - t0) / (t1 - t0)
     write_state(out, {"t": t, **{name: (1 - weight) * first[name] + weight * second[name] for name in STATE_ARRAYS},
                       "s": first["s"]})
@@ -121,21 +124,25 @@ def interpolated_state(saved: list[tuple[float, Path]], t: float, out: Path) -> 
 
 def instant_distances(run: Path, reference: Path, run_steps: int, reference_steps: int, instants: int) -> list[dict]:
     """errors.edp between two run folders at the shared instants j/instants·T, j = 1..instants
-    (their state files of those steps)."""
-    pairs = [tuple(folder / f"state_{j * steps // instants:04d}.txt"
-                   for folder, steps in ((run, run_steps), (reference, reference_steps))) for j in range(1, instants + 1)]
-    return pair_distances(load_result(run), load_result(reference), pairs)
+    (their state files of those steps, as their manifests record them)."""
+    results = (load_result(run), load_result(reference))
+    with tempfile.TemporaryDirectory() as scratch:
+        pairs = [tuple(result.snapshot(f"state_{j * steps // instants:04d}.txt", Path(scratch) / f"{side}_{j:04d}.txt")
+                       for side, result, steps in (("run", results[0], run_steps), ("ref", results[1], reference_steps)))
+                 for j in range(1, instants + 1)]
+        return pair_distances(*results, pairs)
 
 
 def pair_distances(run: Result, reference: Result, pairs: list[tuple[Path, Path]]) -> list[dict]:
-    """errors.edp on pairs of state files (of `run`, of `reference`): one row per pair. The tool
-    reads file names from its pairs file as words, so it runs in a scratch folder that links every
-    file it needs under a plain name."""
+    """errors.edp on pairs of state files (of `run`, of `reference`: private copies, paired_states'
+    or instant_distances'): one row per pair. The tool reads file names from its pairs file as
+    words, so it runs in a scratch folder that holds every file it needs under a plain name (the
+    meshes as the runs' manifests record them)."""
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         for side, result in (("run", run), ("ref", reference)):
             for body in (1, 2):
-                (scratch / f"{side}{body}.msh").symlink_to(result.mesh_file(body).resolve())
+                result.mesh_snapshot(body, scratch / f"{side}{body}.msh")
         lines = []
         for j, (state, reference_state) in enumerate(pairs):
             (scratch / f"run_{j:04d}.txt").symlink_to(Path(state).resolve())
@@ -224,13 +231,46 @@ def nests(coarse, fine) -> bool:
     return bool((local >= -tolerance).all() and (local.sum(axis=-1) <= 1 + tolerance).all())
 
 
-def differing_parameters(a: Result, b: Result) -> dict[str, tuple]:
-    """The parameters whose values differ, from each run's params_used.json (mesh files aside)."""
-    skip = {"out", "meshFile1", "meshFile2", "mesh1", "mesh2", "restart"}
-    names = [name for name in {**a.params, **b.params} if name not in skip]
-    added = {"order": 1}  # the value a run from before a parameter existed ran with
-    values = {run: {**added, **run.params} for run in (a, b)}
-    return {name: (values[a].get(name), values[b].get(name)) for name in names if values[a].get(name) != values[b].get(name)}
+def scene_differences(a: Result, b: Result) -> dict[str, tuple]:
+    """Every difference between the problems two runs solved, by name: for two runs of
+    orchestrate, every key of their scenes (scene.toml: the material, loads, boundary conditions,
+    initial data, mesh keys, time grid; the keys that change no result aside); for a run of the
+    driver by hand, every parameter (params_used.json) and the code of its scene file (run.json's
+    sceneCode: its loads, conditions and initial data). The meshes by content either way."""
+    if "scene.toml" in a.files and "scene.toml" in b.files:
+        values = [flat(tomllib.loads(run.read("scene.toml").decode())) for run in (a, b)]
+        for scene in values:
+            for key in [key for key in scene if key.split(".")[0] == "output" and key.split(".")[1] in RESULT_FREE]:
+                del scene[key]
+    else:
+        skip = {"out", "meshFile1", "meshFile2", "mesh1", "mesh2", "restart", "runIdentity", "solverIdentity"}
+        values = [{**{"order": 1}, **{name: value for name, value in run.params.items() if name not in skip},
+                   "scene file's code (loads, conditions, initial data)": json.loads(run.read(FACTS)).get("sceneCode")}
+                  for run in (a, b)]  # order 1: what a run from before the parameter ran with
+    names = list(dict.fromkeys([*values[0], *values[1]]))
+    found = {name: (values[0].get(name), values[1].get(name)) for name in names if values[0].get(name) != values[1].get(name)}
+    with tempfile.TemporaryDirectory() as scratch:
+        for body in (1, 2):
+            contents = [hashlib.sha256(run.mesh_snapshot(body, Path(scratch) / f"{side}.msh").read_bytes()).hexdigest()
+                        for side, run in (("a", a), ("b", b))]
+            if contents[0] != contents[1]:
+                found[f"body {body}'s mesh (by content)"] = tuple(f"SHA-256 {digest[:12]}…" for digest in contents)
+    return found
+
+
+def flat(table: dict, prefix: str = "") -> dict:
+    """A scene's keys as dotted names (a list of tables by index: body1.boundary.0.label)."""
+    found = {}
+    for key, value in table.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            found |= flat(value, f"{name}.")
+        elif isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
+            for index, item in enumerate(value):
+                found |= flat(item, f"{name}.{index}.")
+        else:
+            found[name] = value
+    return found
 
 
 @dataclass
@@ -244,7 +284,7 @@ class Comparison:
     nested: bool                         # the other run's meshes nest in the reference's, its degree not above: exact
     rows: list[dict] = field(default_factory=list)  # t, errorV, errorZeta, errorBeta, normV, normZeta, normBeta,
     #                                                 interpolated ("A", "B": whose state is interpolated in time; "")
-    parameters: dict[str, tuple] = field(default_factory=dict)
+    differences: dict[str, tuple] = field(default_factory=dict)  # by name: (value of a, value of b)
     meshes: list[dict] = field(default_factory=list)  # per body: nodes, triangles and displacement nodes of a and
     #                                                   b, same (one mesh)
 
@@ -263,7 +303,11 @@ class Comparison:
     def report(self) -> str:
         reference = self.a if self.reference == "a" else self.b
         lines = [f"A: {self.a.folder}", f"B: {self.b.folder}"]
-        lines += [f"  {name}: {value_a} (A), {value_b} (B)" for name, (value_a, value_b) in self.parameters.items()]
+        if self.differences:
+            lines.append("what the two runs solve differs in:")
+            lines += [f"  {name}: {value_a!r} (A), {value_b!r} (B)" for name, (value_a, value_b) in self.differences.items()]
+        else:
+            lines.append("the same problem: every scene key (loads, conditions, initial data) and the meshes' content")
         lines += [f"  body {body} mesh: " + ("the same, " if mesh["same"] else "") +
                   "; ".join(mesh_counts(mesh, run, degree(result)) for run, result in enumerate((self.a, self.b)))
                   for body, mesh in enumerate(self.meshes, 1)]
@@ -307,7 +351,9 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     (paired_states: the other's state interpolated in time where it saved none)."""
     a, b = (run if isinstance(run, Result) else load_result(run) for run in (run_a, run_b))
     files = {run: [run.mesh_file(body) for body in (1, 2)] for run in (a, b)}
-    meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
+    with tempfile.TemporaryDirectory() as scratch:  # each read once, as the manifest records it
+        meshes = {run: [triangulation(run.mesh_snapshot(body, Path(scratch) / f"{side}{body}.msh")) for body in (1, 2)]
+                  for side, run in (("a", a), ("b", b))}
     for body in (0, 1):
         covers_one_body(meshes[a][body], meshes[b][body], (files[a][body], files[b][body]))
     nodes = {run: sum(nodes_of_degree(points, triangles, degree(run)) for points, triangles in meshes[run])
@@ -322,7 +368,7 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
         rows = pair_distances(run, ref, ordered)
     for row, (_, _, interpolated) in zip(rows, pairs):
         row["interpolated"] = interpolated
-    return Comparison(a, b, reference, nested, rows, differing_parameters(a, b),
+    return Comparison(a, b, reference, nested, rows, scene_differences(a, b),
                       mesh_differences(meshes[a], meshes[b], (degree(a), degree(b))))
 
 

@@ -31,12 +31,13 @@ def estimate(run: str | Path | Result, target: float | None = None, sizes: tuple
     if not states:
         raise RuntimeError(f"cannot estimate {result.folder}: it saved no state (state_NNNN.txt); run with "
                            'output.fields including "state" (the default)')
-    with tempfile.TemporaryDirectory() as scratch:  # the tool reads names as words: plain names only
+    # the tool reads names as words: plain names only, each file as the run's manifest records it
+    with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         for body in (1, 2):
-            (scratch / f"body{body}.msh").symlink_to(result.mesh_file(body).resolve())
-        for j, (_, path) in enumerate(states):
-            (scratch / f"state_{j:04d}.txt").symlink_to(path.resolve())
+            result.mesh_snapshot(body, scratch / f"body{body}.msh")
+        for j, (_, name) in enumerate(states):
+            result.snapshot(name, scratch / f"state_{j:04d}.txt")
         (scratch / "states.txt").write_text(f"{len(states)}\n" + "".join(f"state_{j:04d}.txt\n" for j in range(len(states))))
         design = ["-target", repr(float(target)), "-sizes1", "sizes1.pos", "-sizes2", "sizes2.pos",
                   "-contact1", str(result.params["contactLabel1"]), "-contact2", str(result.params["contactLabel2"])] \

@@ -15,6 +15,7 @@ location holds a character that list cannot carry).
 from __future__ import annotations
 
 import atexit
+import errno
 import functools
 import os
 import shutil
@@ -39,8 +40,41 @@ EXIT_MEANING = {
     3: "bad input",
     4: "a solver loop did not converge",
     5: "a broken invariant (NaN, bounds, gap)",
+    6: "a file could not be written",
     8: "FreeFEM run-time error",
 }
+# The exit code of a file that could not be written or read (a full disk, a file-size limit, a
+# read-only or missing folder, no permission): the driver's (edp/lib/facts.idp, failWrite) and
+# every command's (orchestrate/cli).
+FILE_PROBLEM = 6
+
+# What to do about an OSError, by its errno.
+FILE_ADVICE = {
+    errno.ENOSPC: "the disk is full: free space, or write elsewhere",
+    errno.EDQUOT: "the disk quota is used up: free space, or write elsewhere",
+    errno.EFBIG: "a file-size limit (ulimit -f) was reached: raise it, or write less (fewer output times)",
+    errno.EROFS: "the file system is read-only: choose a folder on a writable one",
+    errno.EACCES: "no permission: choose a folder you can write (and read), or change its permissions",
+    errno.EPERM: "not permitted: choose a folder you can write (and read), or change its permissions",
+    errno.ENOENT: "it, or a folder on its path, does not exist: check the path, or make the folder first",
+    errno.ENOTDIR: "a part of its path is a file, not a folder: check the path",
+    errno.EISDIR: "it is a folder where a file is needed: check the path",
+    errno.ENAMETOOLONG: "its path or a name in it is too long: choose a shorter one",
+    errno.ELOOP: "its path runs through a loop of symbolic links: check the path",
+    errno.EIO: "the disk reported an input/output error: check the disk",
+}
+
+
+def file_problem(error: OSError) -> str:
+    """One line for an OSError: the file (both, for a rename), what went wrong and what to do."""
+    names = " -> ".join(str(name) for name in (error.filename, error.filename2) if name is not None) or "a file"
+    advice = FILE_ADVICE.get(error.errno, "check the path and the disk")
+    return f"{names}: {error.strerror or error}; {advice}"
+
+
+class FileProblem(RuntimeError):
+    """A run or command that could not write (or read) a file: its message is file_problem's line
+    and what became of the files written so far."""
 
 
 # Signals that end FreeFem++ for a reason the user can act on.
@@ -196,13 +230,13 @@ def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str
                append: bool = False, meanwhile=None) -> Completed:
     """Run a FreeFEM script in folder `cwd` with its output (stdout and stderr) written to `log`
     (after what it holds, with `append`); meanwhile(), when given, is called once it started.
-    An exception here (KeyboardInterrupt included) ends its process group. Signals Python ignores
-    (SIGXFSZ among them) are restored for the child, so a file-size limit stops FreeFem++ instead
-    of letting its writes fail silently."""
+    An exception here (KeyboardInterrupt included) ends its process group. The signals Python
+    ignores (SIGXFSZ, SIGPIPE) stay ignored in the child: past a file-size limit the driver's write
+    then fails, which it checks, and it stops naming the file (exit 6) instead of dying unexplained."""
     with open(log, "a" if append else "w") as sink:
         process = subprocess.Popen(dying_with_parent(freefem_command(script, args, defines)), cwd=cwd,
                                    env=freefem_env(), text=True, stdout=sink, stderr=subprocess.STDOUT,
-                                   start_new_session=True)
+                                   start_new_session=True, restore_signals=False)
         try:
             if meanwhile:
                 meanwhile()

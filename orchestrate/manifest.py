@@ -21,6 +21,7 @@ import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from orchestrate.formats import STATE_ARRAYS, state_lengths
 from orchestrate.identity import sha256_of as digest
 
 if TYPE_CHECKING:  # the readers import numpy: the runner imports this module before FreeFem++ starts
@@ -40,14 +41,17 @@ PARTS = ("body1", "body2", "contact")
 BODY_ARRAYS = ("u", "zeta")  # point data every body file holds (vonMises is cell data)
 
 
-STATE_ARRAYS = ("u1", "u2", "zeta1", "zeta2", "s", "beta")
-
-
 def read_state(path: str | Path) -> dict[str, np.ndarray | float]:
-    """A state_NNNN.txt file (edp/lib/output.idp): t, then each array as its length and values."""
+    """A state_NNNN.txt file (edp/lib/formats.toml, docs/formats.md): t, then each array as its
+    length and values."""
+    return parse_state(Path(path).read_bytes())
+
+
+def parse_state(data: bytes) -> dict[str, np.ndarray | float]:
+    """A state file's bytes as read_state reads them."""
     import numpy as np
 
-    tokens = Path(path).read_text().split()
+    tokens = data.split()
     state: dict[str, np.ndarray | float] = {"t": float(tokens[0])}
     position = 1
     for name in STATE_ARRAYS:
@@ -226,9 +230,11 @@ def _check_state(path: Path, run: dict) -> None:
         state = read_state(path)
     except (ValueError, IndexError):
         raise IncompleteRun(f"{path}: cannot be read back; cut short?") from None
-    segments = (run["traceNodes1"] - 1) // run.get("order", 1)  # β's, each with order + 1 of θ1_h's nodes
-    expected = dict(zip(STATE_ARRAYS, (2 * displacement_nodes(run, "1"), 2 * displacement_nodes(run, "2"),
-                                       run["nodes1"], run["nodes2"], segments + 1, segments)))
+    try:
+        expected = state_lengths(run)
+    except KeyError as missing:
+        raise IncompleteRun(f"{path.parent / FACTS}: no fact {missing}, which a state file's lengths need: a run of an "
+                            "older driver; run it again") from None
     wrong = [name for name, length in expected.items() if len(state[name]) != length]
     if wrong:
         raise IncompleteRun(f"{path}: arrays {', '.join(wrong)} have the wrong length")

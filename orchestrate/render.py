@@ -3,11 +3,11 @@ deformed bodies), the contact line along Γ_C, β over position and time, and th
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import numpy as np
 
+from orchestrate.formats import HISTORY, REACTION
 from orchestrate.outputs import write_figure
 from orchestrate.plots import pyplot, save
 from orchestrate.results import Result
@@ -32,24 +32,6 @@ def unit_labels(units) -> dict[str, str]:
             "energy": f"{named.force}·{named.length}/{named.length}", "time": named.time}
 
 
-# What each history.csv column is (docs/usage.md, "What a run writes"), for the axes of its plots:
-# title and unit kind (a key of the unit labels; energy is per unit thickness; None: a number).
-HISTORY = {
-    "t": ("time t", "time"), "normV": ("‖u‖_V", "length"), "vmMax1": ("max von Mises, body 1", "stress"),
-    "vmMax2": ("max von Mises, body 2", "stress"), "zetaMin1": ("min ζ, body 1", None),
-    "zetaMin2": ("min ζ, body 2", None), "zetaMax1": ("max ζ, body 1", None), "zetaMax2": ("max ζ, body 2", None),
-    "betaMin": ("min β", None), "betaMax": ("max β", None), "betaMean": ("mean β over Γ_C", None),
-    "debondFront": ("debonding front from Γ_C's start", "length"), "contactLength": ("closed length", "length"),
-    "contactForce": ("contact force ∫ pressure", "force"), "gapMax": ("max g_h − π1 g0", "length"),
-    "lambdaMin": ("min λ_j", "force"), "complementarity": ("max |λ_j (g_j − π1 g0_j)|", "energy"),
-    "forceX1": ("interface force x on body 1", "force"), "forceY1": ("interface force y on body 1", "force"),
-    "forceX2": ("interface force x on body 2", "force"), "forceY2": ("interface force y on body 2", "force"),
-    "forceBalance": ("|F1 + F2|", "force"), "externalWork": ("external work", "energy"),
-    "elasticEnergy": ("elastic energy", "energy"), "glueEnergy": ("glue energy", "energy"),
-    "surfaceEnergy": ("surface energy ε_a ∫(β⁰ − β)", "energy"), "viscousDissipation": ("viscous dissipation", "energy"),
-    "debondDissipation": ("debonding dissipation", "energy"), "energyBalance": ("energy balance (relative)", None),
-}
-REACTION = re.compile(r"reaction([XY])([12])_([0-9]+)")
 
 
 def column_label(name: str, units: dict[str, str], when: str = "") -> str:
@@ -71,9 +53,11 @@ def units_of(result: Result) -> dict[str, str]:
     """The unit labels of a run: its scene's output.units (SI for a run of the driver by hand)."""
     import tomllib
 
+    if "scene.toml" not in result.files:  # a run of the driver by hand
+        return UNITS["SI"]
     try:
-        scene = tomllib.loads((result.folder / "scene.toml").read_text())
-    except (OSError, tomllib.TOMLDecodeError):
+        scene = tomllib.loads(result.read("scene.toml").decode())
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
         return UNITS["SI"]
     return unit_labels(scene.get("output", {}).get("units", "SI"))
 
@@ -392,12 +376,10 @@ def plot_history(runs: Result | dict[str, Result], target: Path, dpi: int = 110)
 
 def plot_bonding_evolution(result: Result, target: Path, dpi: int = 110) -> Path:
     """β over the position along Γ_C and the time, from every contact-line output."""
-    import meshio
-
     times, rows, edges = [], [], None
     for time, files in result.outputs:
         if "contact" in files:
-            line = meshio.read(files["contact"])
+            line = result.fields("contact", time)
             position, position_label = line_position(line.points, units_of(result)["length"])
             edges = segment_edges(line, position)
             rows.append(line.cell_data["beta"][0])

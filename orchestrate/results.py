@@ -2,10 +2,13 @@
 file formats and checks of manifest.py (which knows nothing of this module)."""
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
+import tempfile
 import xml.etree.ElementTree as ElementTree
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,41 +25,83 @@ if TYPE_CHECKING:  # meshio is imported where a field is read: a run that reads 
 
 @dataclass(frozen=True)
 class Result:
-    """A run folder of edp/main.edp."""
+    """A run folder of edp/main.edp, read as one version of it: every file is read whole, its
+    SHA-256 checked against the digests its manifest gave when the folder was loaded (`expected`;
+    taken from manifest.json, else run.json's fileDigests, at the first read when not given), and
+    parsed from the bytes checked. A folder replaced or changed while it is read is refused, never
+    read half from one run and half from another."""
 
     folder: Path
+    expected: dict[str, str] | None = field(default=None, compare=False, repr=False)
+
+    @cached_property
+    def digests(self) -> dict[str, str] | None:
+        """Each file's SHA-256 by name, as this folder's manifest (or run.json) recorded it."""
+        if self.expected is not None:
+            return self.expected
+        return listed_digests(self.folder)
+
+    def read(self, name: str) -> bytes:
+        """A file of the run, read whole and checked against its recorded SHA-256."""
+        path = self.folder / name
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            raise IncompleteRun(f"{path}: missing (the folder was changed or replaced since it was loaded)") from None
+        digests = self.digests
+        if digests is not None and name != FACTS and hashlib.sha256(data).hexdigest() != digests.get(name):
+            raise IncompleteRun(f"{path}: not the file its manifest records (changed, or the folder replaced, since it "
+                                "was loaded): load the run again")
+        return data
+
+    def snapshot(self, name: str, target: Path) -> Path:
+        """The run's file `name` as checked (read), copied to `target`: what a tool reads is that one version."""
+        target.write_bytes(self.read(name))
+        return target
 
     @cached_property
     def history(self) -> dict[str, np.ndarray]:
         """history.csv by column name, one entry per time step."""
-        table = np.genfromtxt(self.folder / "history.csv", delimiter=",", names=True, ndmin=1)
+        table = np.genfromtxt(io.BytesIO(self.read("history.csv")), delimiter=",", names=True, ndmin=1)
         return {name: np.asarray(table[name]) for name in table.dtype.names}
 
     @cached_property
     def files(self) -> list[str]:
         """The names of the run's files: those its manifest lists (a run of orchestrate), else those
         run.json lists (none without either). A reader takes no other file of the folder."""
-        for name in (MANIFEST, FACTS):
-            if (self.folder / name).is_file():
-                return sorted(json.loads((self.folder / name).read_text())["files"])
-        return []
+        if self.digests is None:
+            return []
+        return sorted({*self.digests, FACTS} if (self.folder / FACTS).is_file() else self.digests)
 
     @cached_property
     def params(self) -> dict:
-        return json.loads((self.folder / "params_used.json").read_text())
+        return json.loads(self.read("params_used.json"))
 
     @cached_property
-    def outputs(self) -> list[tuple[float, dict[str, Path]]]:
-        """(time, {part: .vtu path}) for every output time in solution.pvd, in time order."""
-        pvd = self.folder / "solution.pvd"
-        if not pvd.exists():
+    def summary(self) -> dict:
+        """summary.json, what the runner recorded of the run (runs of orchestrate)."""
+        return json.loads(self.read("summary.json"))
+
+    @cached_property
+    def outputs(self) -> list[tuple[float, dict[str, str]]]:
+        """(time, {part: .vtu file name}) for every output time in solution.pvd, in time order."""
+        if "solution.pvd" not in self.files:
             return []
-        by_time: dict[float, dict[str, Path]] = {}
-        for dataset in ElementTree.parse(pvd).getroot().iter("DataSet"):
+        by_time: dict[float, dict[str, str]] = {}
+        for dataset in ElementTree.fromstring(self.read("solution.pvd")).iter("DataSet"):
             time = float(dataset.get("timestep"))
             part = PARTS[int(dataset.get("part"))]
-            by_time.setdefault(time, {})[part] = self.folder / dataset.get("file")
+            by_time.setdefault(time, {})[part] = dataset.get("file")
         return sorted(by_time.items())
+
+    def mesh_snapshot(self, body: int, target: Path) -> Path:
+        """A body's mesh copied to `target`: the run folder's own, as checked (runs of orchestrate),
+        else the file the driver read (mesh_file)."""
+        name = f"body{body}.msh"
+        if name in self.files:
+            return self.snapshot(name, target)
+        target.write_bytes(self.mesh_file(body).read_bytes())
+        return target
 
     def mesh_file(self, body: int) -> Path:
         """The gmsh file of a body: the run folder's copy (runs of orchestrate), else the file the
@@ -86,7 +131,8 @@ class Result:
             files = self.outputs[int(np.argmin(abs(times - time)))][1]
         import meshio
 
-        return meshio.read(files[part])
+        with tempfile.TemporaryDirectory() as scratch:  # meshio reads a path: the bytes checked, in a private copy
+            return meshio.read(self.snapshot(files[part], Path(scratch) / "part.vtu"))
 
     def grid(self, part: str, time: float | None = None):
         """One part at an output time (default the last) as a pyvista dataset, for pyvista's own
@@ -103,6 +149,17 @@ class Result:
         return grid
 
 
+def listed_digests(folder: Path) -> dict[str, str] | None:
+    """The SHA-256 of each file of a run folder by name: its manifest's (runs of orchestrate), else
+    run.json's fileDigests (a run of the driver by hand), else None."""
+    if (folder / MANIFEST).is_file():
+        entries = json.loads((folder / MANIFEST).read_bytes())["files"]
+        return {name: entry["sha256"] for name, entry in entries.items()}
+    if (folder / FACTS).is_file():
+        return dict(json.loads((folder / FACTS).read_bytes()).get("fileDigests") or {})
+    return None
+
+
 def load_result(folder: str | Path) -> Result:
     """A complete run folder: one whose manifest matches every file (a run of orchestrate), or,
     for a folder FreeFem++ wrote by hand (run.json, no manifest), one whose files all read back
@@ -111,15 +168,14 @@ def load_result(folder: str | Path) -> Result:
     folder = Path(folder)
     runner_files = [name for name in ("inputs.json", "summary.json", "scene.toml") if os.path.lexists(folder / name)]
     if (folder / MANIFEST).is_file():
-        verify_manifest(folder)
-    elif runner_files:  # the runner writes its manifest last: without it the run is unfinished or changed
+        manifest = verify_manifest(folder)
+        return Result(folder, {name: entry["sha256"] for name, entry in manifest["files"].items()})
+    if runner_files:  # the runner writes its manifest last: without it the run is unfinished or changed
         raise IncompleteRun(f"{folder}: a run of orchestrate ({', '.join(runner_files)}) without its manifest.json: "
                             "unfinished, or changed since; not trusted")
-    elif (folder / FACTS).is_file():
-        check_files(folder)
-    else:
-        raise FileNotFoundError(f"{folder} is not a run folder (no manifest.json, no run.json)")
-    return Result(folder)
+    if (folder / FACTS).is_file():
+        return Result(folder, dict(check_files(folder)["fileDigests"]))
+    raise FileNotFoundError(f"{folder} is not a run folder (no manifest.json, no run.json)")
 
 
 def cell_field(mesh: meshio.Mesh, name: str) -> np.ndarray:

@@ -40,12 +40,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from orchestrate import mesh as meshing
-from orchestrate.freefem import MAIN, REPO, InputError, SolverError, freefem_binary, require_plain_path, run_logged
+from orchestrate.freefem import (MAIN, REPO, FileProblem, InputError, SolverError, file_problem, freefem_binary,
+                                 require_plain_path, run_logged)
 from orchestrate.identity import solver_identity
 from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, is_run_entry, write_manifest
 from orchestrate.outputs import drawn_image
 from orchestrate.progress import RunProgress, run_progress, wanted
-from orchestrate.scene import Scene, SceneError, to_freefem_scene
+from orchestrate.scene import RESULT_FREE, Scene, SceneError, to_freefem_scene
 from orchestrate.steps import StepsError, choose_steps
 
 if TYPE_CHECKING:
@@ -176,7 +177,7 @@ def claimed(out: Path, keep=None):
         partial.mkdir(parents=True, exist_ok=True)
         handle = os.open(partial, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
     except OSError as error:
-        raise RunError(f"cannot make the run's folder {partial}: {error.strerror}") from None
+        raise FileProblem(f"cannot make the run's folder: {file_problem(error)}") from None
     try:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -204,8 +205,6 @@ def result_code(scene: Scene) -> str:
     return to_freefem_scene(scene.model_copy(update={"output": output}))
 
 
-# Scene keys that change no result: when a run checkpoints, whether it makes images and their units.
-RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images", "units")
 
 
 def inputs_of(scene: Scene) -> dict:
@@ -384,8 +383,8 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
             fail_into(partial, failed, str(error))
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
-            raise RunError(f"cannot write the run ({error.strerror}: {error.filename}); is the disk full? "
-                           f"The files written so far are in {partial}") from None
+            raise FileProblem(f"cannot write the run: {file_problem(error)}. The files written so far are in "
+                              f"{partial}") from None
         except Exception as error:  # a fault of this program: the folder still says what happened
             fail_into(partial, failed, f"{type(error).__name__}: {error}")
             raise
@@ -400,18 +399,30 @@ STEP_FAILURES = (4, 5)
 
 
 def keep_interrupted(partial: Path, reason: str) -> None:
-    """An interrupted run that could not be continued: why, at the end of its run.log and in INTERRUPTED."""
-    with open(partial / "run.log", "a") as log:
-        log.write(f"\nERROR: resuming failed: {reason}\n")
-    (partial / "INTERRUPTED").write_text(f"This run was interrupted, and resuming it failed: {reason}\n")
+    """An interrupted run that could not be continued: why, at the end of its run.log and in
+    INTERRUPTED (as far as the disk lets them be written: the reason is raised anyway)."""
+    noted(partial / "run.log", f"\nERROR: resuming failed: {reason}\n")
+    noted(partial / "INTERRUPTED", f"This run was interrupted, and resuming it failed: {reason}\n")
 
 
 def fail_into(partial: Path, failed: Path, reason: str) -> None:
-    """A failed run: its reason at the end of run.log, its folder renamed <out>.failed."""
-    with open(partial / "run.log", "a") as log:
-        log.write(f"\nERROR: {reason}\n")
-    retire(failed)
-    partial.rename(failed)
+    """A failed run: its reason at the end of run.log, its folder renamed <out>.failed. On a disk
+    that refuses even that, the folder stays <out>.partial: the caller raises the reason anyway."""
+    noted(partial / "run.log", f"\nERROR: {reason}\n")
+    try:
+        retire(failed)
+        partial.rename(failed)
+    except OSError:
+        pass
+
+
+def noted(path: Path, text: str) -> None:
+    """`text` appended to a file of a failed run, if the disk lets it be."""
+    try:
+        with open(path, "a") as file:
+            file.write(text)
+    except OSError:
+        pass
 
 
 def retire(folder: Path) -> None:
@@ -618,7 +629,8 @@ def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None 
     timing["solver"] = time.perf_counter() - clock
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
-        raise SolverError(done.returncode, python_spelling(done.error_line), tail)
+        said = done.error_line or f"it left no message: {folder / 'run.log'} could not hold one (a full disk?)"
+        raise SolverError(done.returncode, python_spelling(said), tail)
     bar.phase("reading the files back")
     from orchestrate.results import Result
 

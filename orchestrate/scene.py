@@ -420,6 +420,10 @@ def _output_times(value):
     return [float(time) for time in value]
 
 
+# Keys of output that change no result: when a run checkpoints, whether it makes images and their units.
+RESULT_FREE = ("checkpointEvery", "checkpointSeconds", "images", "units")
+
+
 class Output(Table):
     """Files at `times` ("final", "all", "none" or a list of times in (0, T]) holding the
     `fields`: "bodies" (u, zeta, vonMises), "stress" (sigma11/22/12 too), "contact" (the line),

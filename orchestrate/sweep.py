@@ -25,6 +25,7 @@ import tomllib
 from pathlib import Path
 
 from orchestrate.arguments import split_assignment
+from orchestrate.formats import SWEEP_COLUMNS, SWEEP_FIGURES
 from orchestrate.freefem import InputError
 from orchestrate.manifest import IncompleteRun, verify_manifest
 from orchestrate.outputs import claim_growing_folder, write_csv
@@ -33,8 +34,7 @@ from orchestrate.progress import counter, wanted
 from orchestrate.runner import SUFFIXES, inputs_of, run, signals_as_interrupt
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
 
-FIGURES = ("normV", "contactForce", "contactLength", "betaMin", "betaMean", "zetaMin1", "zetaMin2",
-           "vmMax1", "vmMax2", "gapMax")
+FIGURES = SWEEP_FIGURES  # the history's final values a row holds (edp/lib/formats.toml, [sweep])
 
 
 LIST_EXAMPLE = '\'body1.boundary[label=4].fy=["-10*min(t, 0.5)", "-20*t"]\''
@@ -378,4 +378,4 @@ def run_jobs(jobs, workers: int, scheduler: str | None, progress: bool, trust_ge
 
 
 def write_table(path: Path, rows: list[dict], keys: list[str]) -> None:
-    write_csv(path, rows, [*keys, "folder", "status", "error", "warnings", "wallSeconds", "contactItersPerStep", *FIGURES])
+    write_csv(path, rows, [*keys, *SWEEP_COLUMNS, *FIGURES])

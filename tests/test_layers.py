@@ -18,7 +18,7 @@ pytestmark = pytest.mark.unit
 LAYERS = [
     {"identity", "expr", "gmsh_mesher", "msh", "schema"},
     {"freefem"},
-    {"geo", "outputs", "progress", "parameters"},
+    {"geo", "outputs", "progress", "parameters", "formats"},
     {"mesh", "manifest", "plots"},
     {"scene", "results"},
     {"arguments", "render", "compare", "estimate"},

@@ -13,7 +13,7 @@ import argparse
 import importlib
 import sys
 
-from orchestrate.freefem import InputError, SolverError
+from orchestrate.freefem import FILE_PROBLEM, FileProblem, InputError, SolverError, file_problem
 from orchestrate.mesh import MeshError
 
 COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
@@ -75,9 +75,18 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return options.handler(options)
     except SolverError as error:
-        print(f"error: {error}\n{error.log_tail}", file=sys.stderr)
+        print(f"error: {error}" + (f"\n{error.log_tail}" if error.returncode != FILE_PROBLEM else ""), file=sys.stderr)
         return error.returncode if error.returncode > 0 else 1
-    except (InputError, MeshError, FileNotFoundError) as error:
+    except FileProblem as error:
+        print(f"error: {error}", file=sys.stderr)
+        return FILE_PROBLEM
+    except FileNotFoundError as error:  # the program's own refusals carry no errno: a missing input named
+        print(f"error: {file_problem(error) if error.errno else error}", file=sys.stderr)
+        return FILE_PROBLEM if error.errno else 2
+    except OSError as error:
+        print(f"error: {file_problem(error)}", file=sys.stderr)
+        return FILE_PROBLEM
+    except (InputError, MeshError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except RuntimeError as error:
