@@ -4,6 +4,7 @@ and history plots."""
 import subprocess
 import sys
 
+import meshio
 import numpy as np
 import pytest
 from PIL import Image
@@ -79,10 +80,42 @@ def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
                                  cwd=REPO, capture_output=True, text=True)
         assert refused.returncode == 2 and all(word in refused.stderr for word in words), refused.stderr
     signed = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out", str(tmp_path / "s"),
-                             "--fields", "sigma22", "--range", "sigma22=-20,20", "--time", "0.7"],
+                             "--fields", "sigma22", "--range", "sigma22=-20,20", "--time", "1"],
                             cwd=REPO, capture_output=True, text=True)
     assert signed.returncode == 0, signed.stderr
-    assert "--time 0.7: drawing t = 0.5, the nearest output time (written: 0.5, 1)" in signed.stdout
+
+
+@pytest.mark.parametrize("time, words", [("0.7", ["the nearest: t = 0.5 and 1"]), ("nan", ["from 0.5 to 1"]),
+                                         ("-inf", ["from 0.5 to 1"]), ("1.5", ["the nearest: t = 1;"])])
+def test_render_refuses_a_time_the_run_wrote_no_output_at_before_drawing(coarse, tmp_path, time, words):
+    """Its outputs are at 0.5 and 1 (output.times): any other time is refused, naming the option,
+    the range and the nearest output times, and no image is drawn."""
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out",
+                           str(tmp_path / "images"), f"--time={time}"], cwd=REPO, capture_output=True, text=True)
+    assert done.returncode == 2 and f"error: --time {time}: not an output time" in done.stderr, done.stderr
+    assert all(word in done.stderr for word in words) and "Traceback" not in done.stderr, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and not (tmp_path / "images").exists()
+
+
+def test_a_field_is_the_one_of_the_time_asked_or_refused(coarse, tmp_path):
+    """grid(time=) gives the output at that time, to round-off (1e-9 of T), and refuses another
+    (it gave the nearest: 0.47 drew the output at 0.5); the step's time is n·T/N to the last digit,
+    not the .pvd's six (1/30 there is 0.0333333)."""
+    from orchestrate.freefem import InputError
+
+    half = coarse.grid("body1", 0.5)
+    assert np.array_equal(coarse.grid("body1", 0.5 * (1 + 1e-12))["u"], half["u"])
+    assert not np.array_equal(coarse.grid("body1", 1.0)["u"], half["u"])
+    for time in (0.47, 0.5 * (1 + 1e-6), 0.0, float("nan")):
+        with pytest.raises(InputError, match="not an output time"):
+            coarse.grid("body1", time)
+    with pytest.raises(InputError, match=r"time 0.47: .*2 output times run from 0.5 to 1; the nearest: t = 0.5"):
+        coarse.grid("contact", 0.47)
+    every = run(REPO / "scenes" / "paper.toml", tmp_path / "every",
+                {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 30, "output.times": "all", "output.images": False})
+    assert [t for t, _ in every.outputs] == [n * (1 / 30) for n in range(1, 31)]
+    first = every.fields("body2", 1 / 30).point_data["u"]
+    assert np.array_equal(first, meshio.read(every.folder / "body2_0001.vtu").point_data["u"])
 
 
 def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, tmp_path, capsys):

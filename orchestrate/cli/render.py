@@ -74,8 +74,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     parser.add_argument("--out", help="a new folder for the images (default: the run folder)")
     add_force_argument(parser, NAME)
-    parser.add_argument("--time", type=float, metavar="T", help="the output time of fields.* (default: the last; the nearest "
-                                                  "written is used)")
+    parser.add_argument("--time", type=float, metavar="T",
+                        help="the output time of fields.* and contact_line.* (default: the last): one the run wrote, "
+                             "within 1e-9·T; another is refused, naming the nearest")
     parser.add_argument("--fields", type=field_list, default=("vonMises", "zeta"), metavar="F1,F2",
                         help=f"the fields of fields.*, comma-separated (default vonMises,zeta; of {', '.join(FIELDS)})")
     parser.add_argument("--magnification", type=float, metavar="M",
@@ -112,11 +113,7 @@ def command(options) -> int:
         refuse_folder(Path(options.out), NAME, options.force)  # before the run folder is read
     result = load_result(options.folder)
     if options.time is not None:
-        written = [t for t, _ in result.outputs]
-        nearest = min(written, key=lambda t: abs(t - options.time)) if written else None
-        if nearest is not None and nearest != options.time:
-            print(f"--time {options.time:g}: drawing t = {nearest:g}, the nearest output time (written: "
-                  f"{', '.join(f'{t:g}' for t in written)})")
+        result.output_at(options.time, option="--time")  # refused before an image is drawn
     folder = Path(options.folder)
     if options.out:
         folder = claim_folder(Path(options.out), NAME, [f"{name}.{options.image_format}" for name in IMAGES],
