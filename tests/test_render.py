@@ -118,6 +118,21 @@ def test_a_field_is_the_one_of_the_time_asked_or_refused(coarse, tmp_path):
     assert np.array_equal(first, meshio.read(every.folder / "body2_0001.vtu").point_data["u"])
 
 
+def test_a_history_column_on_a_log_axis_or_against_itself_is_refused(coarse, tmp_path, capsys):
+    """body 2 is pressed down: its forceY2 is negative, which a log axis would drop, leaving an
+    empty image; t against t means nothing. Both refused, nothing drawn."""
+    force = np.genfromtxt(coarse.folder / "history.csv", delimiter=",", names=True)["forceY2"]
+    assert force.min() < 0
+    assert main(["plot", str(coarse.folder), "--y", "forceY2", "--log", "y", "--out", str(tmp_path / "f.png")]) == 2
+    assert f"--log y: forceY2 goes down to {force.min():.6g}" in capsys.readouterr().err
+    assert main(["plot", str(coarse.folder), "--y", "t", "--out", str(tmp_path / "t.png")]) == 2
+    assert "--x and --y are both t" in capsys.readouterr().err
+    assert main(["plot", str(coarse.folder), "--y", "forceY1", "--x", "forceY2", "--log", "x",
+                 "--out", str(tmp_path / "x.png")]) == 2
+    assert "--log x: forceY2 goes down" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
 def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, tmp_path, capsys):
     """render --out into a folder it drew asks for --force; --force replaces its images (a link
     among them unlinked, its target kept) and refuses a folder that holds anything else."""

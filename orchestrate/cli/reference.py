@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from orchestrate.freefem import REPO
-from orchestrate.outputs import refuse_file, write_text
+from orchestrate.outputs import claim_file, write_text
 from orchestrate.parameters import generated
 from orchestrate.reference import MARK, PAGE, page
 
@@ -26,7 +26,7 @@ def command(options) -> int:
     target = Path(options.out)
     pages = {target: page(), **(generated() if target.resolve() == PAGE else {})}
     for target in pages:
-        refuse_file(target, options.force, MARK)
+        claim_file(target, options.force, MARK)
     for target, text in pages.items():
         write_text(target, text)
         print(f"wrote {target}")
