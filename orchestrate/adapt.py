@@ -27,6 +27,7 @@ from orchestrate.manifest import displacement_nodes, facts
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.runner import run
 from orchestrate.scene import Scene
+from orchestrate.schema import shown
 
 NAME = "adapt"
 FILES = ("adapt.csv", "README.md")
@@ -44,7 +45,7 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
         raise InputError(f"--target {target:g}: give the relative estimate to reach, in (0, 1), e.g. 0.01")
     if cycles < 1:
         raise InputError(f"--cycles {cycles}: give at least 1")
-    require_designable(Scene.load(scene, overrides))
+    require_adaptable(Scene.load(scene, overrides))
     out = Path(out)
     claim_folder(out, NAME, FILES, force, folders=("runs", "sizes"))
     forget_cycles(out)
@@ -74,8 +75,15 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
     return rows
 
 
-def require_designable(scene: Scene) -> None:
-    """A scene whose every mesh key the loop honours (the module's docstring): refine is refused."""
+def require_adaptable(scene: Scene) -> None:
+    """A scene whose every mesh key the loop honours (the module's docstring: refine is refused) and
+    whose runs save the states the estimate reads, refused before the pilot runs."""
+    if "state" not in scene.output.fields:
+        raise InputError(f"output.fields = {shown(scene.output.fields)}: adapt estimates each run from the states it "
+                         'saves: add "state" (the default has it)')
+    if scene.output.times == "none":
+        raise InputError('output.times = "none": adapt estimates each run from the states it saves at its output '
+                         'times: give "final" (the default), "all" or a list of times')
     for name in ("body1", "body2"):
         refine = getattr(scene, name).mesh.refine
         if refine:

@@ -73,6 +73,9 @@ class Result:
         """The output (time, files) holding `parts` at `time` (default: the last): the one whose
         time is within SAME_TIME·T of it. A time no output has is refused, named as `option`, with
         the nearest output times: a field is never taken from another time than the one asked."""
+        unknown = [part for part in parts if part not in PARTS]
+        if unknown:
+            raise InputError(f"part {shown(unknown[0])}: a run's parts are {', '.join(PARTS)}")
         written = [(t, files) for t, files in self.outputs if set(parts) <= set(files)]
         if not written:
             raise FileNotFoundError(f"{self.folder} has no {' or '.join(parts) or '.vtu'} output files (output.times, "
@@ -81,7 +84,7 @@ class Result:
             return written[-1]
         times = [t for t, _ in written]
         try:
-            asked = float(time)
+            asked = math.nan if isinstance(time, bool) else float(time)  # True is no time 1
         except (TypeError, ValueError):
             asked = math.nan
         place = bisect.bisect_left(times, asked) if math.isfinite(asked) else None

@@ -106,9 +106,11 @@ def test_a_field_is_the_one_of_the_time_asked_or_refused(coarse, tmp_path):
     half = coarse.grid("body1", 0.5)
     assert np.array_equal(coarse.grid("body1", 0.5 * (1 + 1e-12))["u"], half["u"])
     assert not np.array_equal(coarse.grid("body1", 1.0)["u"], half["u"])
-    for time in (0.47, 0.5 * (1 + 1e-6), 0.0, float("nan")):
+    for time in (0.47, 0.5 * (1 + 1e-6), 0.0, float("nan"), True, "half"):
         with pytest.raises(InputError, match="not an output time"):
             coarse.grid("body1", time)
+    with pytest.raises(InputError, match="part 'bodyl': a run's parts are body1, body2, contact"):
+        coarse.grid("bodyl", 0.5)
     with pytest.raises(InputError, match=r"time 0.47: .*2 output times run from 0.5 to 1; the nearest: t = 0.5"):
         coarse.grid("contact", 0.47)
     every = run(REPO / "scenes" / "paper.toml", tmp_path / "every",
@@ -148,6 +150,16 @@ def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, 
     (out / "notes.txt").write_text("the user's")
     assert main(["render", str(coarse.folder), "--out", str(out), "--force"]) == 2
     assert "also holds notes.txt" in capsys.readouterr().err and (out / "notes.txt").exists()
+
+
+@pytest.mark.unit
+@pytest.mark.parametrize("options, words", [(["--cmap", "nope"], "--cmap nope: not a matplotlib colormap"),
+                                            (["--magnification", "nan"], "--magnification nan: give a finite number"),
+                                            (["--range", "per-body", "--range", "zeta=0,1"], "give one kind")])
+def test_a_bad_render_option_is_an_input_error_before_the_run_is_read(tmp_path, capsys, options, words):
+    """Exit 2, as every other refused input (they ended as run-time errors, exit 1)."""
+    assert main(["render", str(tmp_path / "no-run"), "--out", str(tmp_path / "images"), *options]) == 2
+    assert words in capsys.readouterr().err and not any(tmp_path.iterdir())
 
 
 @pytest.mark.unit

@@ -5,9 +5,11 @@ import math
 from pathlib import Path
 
 from orchestrate.cli.options import add_force_argument
+from orchestrate.freefem import InputError
 from orchestrate.outputs import claim_folder, refuse_folder
 from orchestrate.render import FIELDS, IMAGES, render_all
 from orchestrate.results import load_result
+from orchestrate.schema import shown
 
 NAME, HELP = "render", "images of a run folder"
 
@@ -98,9 +100,10 @@ def command(options) -> int:
     import matplotlib
 
     if options.cmap and options.cmap not in matplotlib.colormaps:
-        raise RuntimeError(f"--cmap {options.cmap}: not a matplotlib colormap (for example viridis, magma, cividis)")
+        raise InputError(f"--cmap {shown(options.cmap, False)}: not a matplotlib colormap (for example viridis, magma, "
+                         "cividis)")
     if options.magnification is not None and not (math.isfinite(options.magnification) and options.magnification >= 0):
-        raise RuntimeError(f"--magnification {options.magnification}: give a number >= 0")
+        raise InputError(f"--magnification {options.magnification}: give a finite number >= 0 (0: undeformed)")
     ranges, given = "shared", {}
     for choice in options.ranges or []:
         if isinstance(choice, dict):
@@ -108,7 +111,7 @@ def command(options) -> int:
         else:
             ranges = choice
     if given and ranges == "per-body":
-        raise RuntimeError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
+        raise InputError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
     if options.out:
         refuse_folder(Path(options.out), NAME, options.force)  # before the run folder is read
     result = load_result(options.folder)
