@@ -52,7 +52,10 @@ def field_list(text: str) -> tuple[str, ...]:
     names = tuple(name.strip() for name in text.split(","))
     unknown = [name for name in names if name not in FIELDS]
     if unknown or not names:
-        raise argparse.ArgumentTypeError(f"no field {', '.join(unknown)} (fields: {', '.join(FIELDS)})")
+        raise argparse.ArgumentTypeError(f"no field {shown(', '.join(unknown), False) or repr('')} (fields: "
+                                         f"{', '.join(FIELDS)})")
+    if len(set(names)) < len(names):
+        raise argparse.ArgumentTypeError(f"'{text}' names a field twice: each is one panel")
     return names
 
 
