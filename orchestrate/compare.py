@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrate.freefem import REPO, InputError, run_script
+from orchestrate.freefem import REPO, run_script
 from orchestrate.manifest import STATE_ARRAYS, read_state, write_state
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
@@ -306,8 +306,6 @@ def compare(run_a: str | Path | Result, run_b: str | Path | Result) -> Compariso
     """The distances of two complete runs (load_result) at every time either saved its state
     (paired_states: the other's state interpolated in time where it saved none)."""
     a, b = (run if isinstance(run, Result) else load_result(run) for run in (run_a, run_b))
-    if a.folder.resolve() == b.folder.resolve():
-        raise InputError(f"RUN_A and RUN_B are both {a.folder}: compare two runs (a run's distance to itself is 0)")
     files = {run: [run.mesh_file(body) for body in (1, 2)] for run in (a, b)}
     meshes = {run: [triangulation(path) for path in paths] for run, paths in files.items()}  # each read once
     for body in (0, 1):
