@@ -88,8 +88,8 @@ def require_adaptable(scene: Scene) -> None:
         refine = getattr(scene, name).mesh.refine
         if refine:
             raise InputError(f"{name}.mesh.refine = {refine}: adapt designs the element sizes itself, and splitting a "
-                             f"design's triangles {refine} times would give it {4 ** refine} times the triangles designed: "
-                             f"give the pilot's fineness by {name}.mesh.n, with --set {name}.mesh.refine=0")
+                             f"design's triangles {refine} times would give it {4 ** refine} times the triangles "
+                             f"designed: give the pilot's fineness by {name}.mesh.n, with --set {name}.mesh.refine=0")
 
 
 def forget_cycles(out: Path) -> None:

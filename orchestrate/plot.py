@@ -186,7 +186,8 @@ def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | 
                              f"{', '.join(histories[0][1])})")
     drawn = [(label, history) for label, history in histories if x in history and y in history]
     if not drawn:
-        raise InputError(f"--x {shown(x, False)}, --y {shown(y, False)}: no run of {source} has both in its history.csv")
+        raise InputError(f"--x {shown(x, False)}, --y {shown(y, False)}: no run of {source} has both in its "
+                         "history.csv")
     require_loggable(log, {"x": (x, [value for _, history in drawn for value in history[x]]),
                            "y": (y, [value for _, history in drawn for value in history[y]])})
     claim_file(target, force, MARK)
@@ -205,7 +206,8 @@ def plot_columns(source: str | Path, y: str, x: str = "t", target: str | Path | 
     if len(drawn) > 1:
         axis.legend(fontsize=8)
     lacking = [name for name in (x, y) if not all(name in history for _, history in histories)]
-    name_left_out(axis, f"no column {' or '.join(lacking)}", [folder.name for (_, folder), (_, history)
-                                                              in zip(runs, histories) if x not in history or y not in history])
+    left_out = [folder.name for (_, folder), (_, history) in zip(runs, histories)
+                if x not in history or y not in history]
+    name_left_out(axis, f"no column {' or '.join(lacking)}", left_out)
     save(figure, target, dpi=dpi)
     return target

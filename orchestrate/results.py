@@ -93,9 +93,9 @@ class Result:
             if abs(times[j] - asked) <= SAME_TIME * self.params["T"]:
                 return written[j]
         nearest = f"; the nearest: t = {' and '.join(f'{times[j]:.12g}' for j in near)}" if near else ""
-        raise InputError(f"{option} {shown(time if math.isnan(asked) else asked)}: not an output time of {self.folder} (its {len(times)} output times "
-                         f"run from {times[0]:.12g} to {times[-1]:.12g}{nearest}; a time is an output's within "
-                         f"{SAME_TIME:g}·T)")
+        raise InputError(f"{option} {shown(time if math.isnan(asked) else asked)}: not an output time of "
+                         f"{self.folder} (its {len(times)} output times run from {times[0]:.12g} to "
+                         f"{times[-1]:.12g}{nearest}; a time is an output's within {SAME_TIME:g}·T)")
 
     def mesh_file(self, body: int) -> Path:
         """The gmsh file of a body: the run folder's copy (runs of orchestrate), else the file the

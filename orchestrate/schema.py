@@ -305,8 +305,9 @@ class Tagged(Check):
         name = value[self.tag]
         table = self.tables.get(name) if isinstance(name, str) else None
         if table is None:
-            raise problem("union_tag_invalid", f"Input tag {shown(name)} found using '{self.tag}' does not match any of the "
-                                               f"expected tags: {', '.join(repr(t) for t in self.tables)}", value)
+            expected = ", ".join(repr(t) for t in self.tables)
+            raise problem("union_tag_invalid", f"Input tag {shown(name)} found using '{self.tag}' does not match any "
+                                               f"of the expected tags: {expected}", value)
         try:
             return table.checked(value, context)
         except Invalid as error:

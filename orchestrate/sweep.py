@@ -134,13 +134,14 @@ def _flatten(table: dict, prefix: str, grid: dict, path: Path) -> None:
     for name, value in table.items():
         key = prefix + name
         if isinstance(value, dict) and prefix.count(".") >= MAX_NESTING:
-            raise SceneError(f"grid file {path}: {shown(key, False)} nests tables more than {MAX_NESTING} deep: no scene "
-                             "key is that long (e.g. body1.boundary.1.fy)")
+            raise SceneError(f"grid file {path}: {shown(key, False)} nests tables more than {MAX_NESTING} deep: no "
+                             "scene key is that long (e.g. body1.boundary.1.fy)")
         if isinstance(value, dict):
             _flatten(value, f"{key}.", grid, path)
         elif not isinstance(value, list):
             raise SceneError(f"grid file {path}: {shown(key, False)} = {shown(value)} is not a list: give its values "
-                             f"as one, e.g. {shown(key, False)} = [{shown(value)}, ...] (a list of lists to sweep a list)")
+                             f"as one, e.g. {shown(key, False)} = [{shown(value)}, ...] (a list of lists to sweep a "
+                             "list)")
         elif key in grid:
             raise SceneError(f"grid file {path}: {shown(key, False)} is given twice: list all its values once")
         else:
