@@ -4,11 +4,15 @@ A pilot run of the scene as it is; then, while its estimate (orchestrate/estimat
 Zienkiewicz–Zhu recovery of the strains, the largest η/‖u_h‖_V over the saved states) exceeds the
 target, each body is meshed again from its own .geo with the element sizes the estimate designs
 (a gmsh view, mesh.sizes; the .geo's constant adapted = 1 drops its Transfinite lines, so Γ_C is
-graded too) and the scene runs again. Every run is a plain run of the scene, in out/runs/cycleN
-with its manifest, meshes and restart as any other; the size fields it ran on are kept in
-out/sizes/cycleN, and out/adapt.csv lists each cycle's nodes, estimate and wall time (written after
-every cycle, so a loop that fails keeps the record of those it finished). No state
-passes from one run to the next: each is the scene's whole run on its own meshes.
+graded too) and the scene runs again. Of each body's mesh keys, geo (or rectangle), parameters,
+contactLabel and timeLimit hold for every run; n, structured and sizes give the pilot's mesh, whose
+sizes each design then replaces (a design is graded, never structured); refine is refused, since
+splitting a design's triangles would give it 4^refine times the triangles designed. Every run is
+a plain run of the scene, in out/runs/cycleN with its manifest, meshes and restart as any other;
+the size fields it ran on are kept in out/sizes/cycleN, and out/adapt.csv lists each cycle's
+nodes, estimate and wall time (written after every cycle, so a loop that fails keeps the record of
+those it finished). No state passes from one run to the next: each is the scene's whole run on its
+own meshes.
 """
 from __future__ import annotations
 
@@ -22,6 +26,8 @@ from orchestrate.freefem import InputError
 from orchestrate.manifest import displacement_nodes, facts
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.runner import run
+from orchestrate.scene import Scene
+from orchestrate.schema import shown
 
 NAME = "adapt"
 FILES = ("adapt.csv", "README.md")
@@ -39,6 +45,7 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
         raise InputError(f"--target {target:g}: give the relative estimate to reach, in (0, 1), e.g. 0.01")
     if cycles < 1:
         raise InputError(f"--cycles {cycles}: give at least 1")
+    require_adaptable(Scene.load(scene, overrides))
     out = Path(out)
     claim_folder(out, NAME, FILES, force, folders=("runs", "sizes"))
     forget_cycles(out)
@@ -66,6 +73,23 @@ def adapt(scene: str | Path, out: str | Path, target: float, cycles: int = CYCLE
         sizes = {f"body{body}.mesh.sizes": str(path.resolve()) for body, path in enumerate(paths, 1)}
     write_text(out / "README.md", report(rows, scene, target))
     return rows
+
+
+def require_adaptable(scene: Scene) -> None:
+    """A scene whose every mesh key the loop honours (the module's docstring: refine is refused) and
+    whose runs save the states the estimate reads, refused before the pilot runs."""
+    if "state" not in scene.output.fields:
+        raise InputError(f"output.fields = {shown(scene.output.fields)}: adapt estimates each run from the states it "
+                         'saves: add "state" (the default has it)')
+    if scene.output.times == "none":
+        raise InputError('output.times = "none": adapt estimates each run from the states it saves at its output '
+                         'times: give "final" (the default), "all" or a list of times')
+    for name in ("body1", "body2"):
+        refine = getattr(scene, name).mesh.refine
+        if refine:
+            raise InputError(f"{name}.mesh.refine = {refine}: adapt designs the element sizes itself, and splitting a "
+                             f"design's triangles {refine} times would give it {4 ** refine} times the triangles "
+                             f"designed: give the pilot's fineness by {name}.mesh.n, with --set {name}.mesh.refine=0")
 
 
 def forget_cycles(out: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 from orchestrate.scene import SceneError, parse_value
+from orchestrate.schema import shown
 
 
 # KEY=VALUE split at the first '=' outside brackets: a key may name a boundary condition by its
@@ -16,7 +17,7 @@ def split_assignment(item: str, option: str, form: str, example: str) -> tuple[s
     """`KEY=VALUE` as its key and value text, both stripped; else an error showing the form."""
     match = ASSIGNMENT.fullmatch(item)
     if not match or not match[1].strip():
-        raise SceneError(f"{option} {item!r}: expected {form}, e.g. {option} {example}")
+        raise SceneError(f"{option} {shown(item)}: expected {form}, e.g. {option} {example}")
     return match[1].strip(), match[2].strip()
 
 
@@ -26,6 +27,6 @@ def parse_assignments(items: list[str], option: str) -> dict:
     for item in items:
         key, value = split_assignment(item, option, "key=value", "time.N=80")
         if key in assignments:
-            raise SceneError(f"{option} {key} is given twice: give it once")
+            raise SceneError(f"{option} {shown(key, False)} is given twice: give it once")
         assignments[key] = parse_value(value)
     return assignments

@@ -224,6 +224,17 @@ def refuse_file(path: Path, force: bool, mark: str, option: str = "--out") -> No
                           f"--force replaces only the program's own files; choose another {option}")
 
 
+def claim_file(path: Path, force: bool, mark: str, option: str = "--out") -> None:
+    """`path` ready to be written: refuse_file's checks, then its folder made when new (as run --out
+    makes its parents), unless a folder on the way is a file."""
+    refuse_file(path, force, mark, option)
+    folder = path.absolute().parent
+    found = next(parent for parent in (folder, *folder.parents) if os.path.lexists(parent))
+    if not found.is_dir():
+        raise OutputError(f"{option} {path}: {found} is a file, not a folder: choose another {option}")
+    folder.mkdir(parents=True, exist_ok=True)
+
+
 # How each kind of file this package writes begins: a file named so that does not begin so is no
 # image of ours, whatever words it holds; a page (.md) holds its mark in its opening lines.
 SIGNATURES = {".png": b"\x89PNG\r\n\x1a\n", ".pdf": b"%PDF-", ".svg": b"<?xml"}

@@ -142,10 +142,14 @@ def unbounded_field(name: str) -> Key:
     the range, or the text "inf" (JSON and TOML have no infinite number)."""
     parameter = PARAMETERS[name]
     low = parameter.bounds.get("ge", parameter.bounds.get("gt"))
+    table, _, leaf = parameter.scene.rpartition(".")
 
     def validate(value):
         if value == "inf":
             return value
+        if value == math.inf:  # TOML's bare inf, a float: the range's end is the word, as the driver reads it
+            raise ValueError(f'infinity is the text "inf" here, in quotes: {leaf} = "inf" under [{table}] of a scene '
+                             f"file, --set '{parameter.scene}=\"inf\"' on the command line")
         if not isinstance(value, (int, float)) or isinstance(value, bool) or not -1e308 < value < 1e308 \
                 or value < low or (value == low and "gt" in parameter.bounds):
             raise ValueError(f'give a number in {parameter.range} or "inf"')

@@ -91,11 +91,8 @@ def nice_magnification(max_displacement: float, size: float) -> float:
 
 
 def bodies_at(result: Result, time: float | None = None) -> tuple[float, list]:
-    """The output time nearest `time` (default: the last) and both bodies' meshes there."""
-    times = [t for t, files in result.outputs if {"body1", "body2"} <= set(files)]
-    if not times:
-        raise FileNotFoundError(f"{result.folder} has no body files (output.fields needs 'bodies')")
-    chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
+    """The output time `time` (default: the last; Result.output_at) and both bodies' meshes there."""
+    chosen, _ = result.output_at(time, ("body1", "body2"))
     return chosen, [result.fields(part, chosen) for part in ("body1", "body2")]
 
 
@@ -301,10 +298,9 @@ def glued(result: Result) -> bool:
 
 def plot_contact_line(result: Result, target: Path, time: float | None = None, dpi: int = 120) -> Path:
     """β (when there is glue), the gap and the contact pressure along Γ_C at an output time
-    (default: the last, else the nearest written); with an initial gap g0 the gap is shown as
+    (default: the last; Result.output_at); with an initial gap g0 the gap is shown as
     g_h − π1 g0, so that 0 is closed there too, and a gap within contactTol of 0 as 0."""
-    times = [t for t, files in result.outputs if "contact" in files]
-    chosen = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
+    chosen, _ = result.output_at(time, ("contact",))
     line = result.fields("contact", chosen)
     units = units_of(result)
     s, position_label = line_position(line.points, units["length"])

@@ -2,10 +2,13 @@
 file formats and checks of manifest.py (which knows nothing of this module)."""
 from __future__ import annotations
 
+import bisect
 import hashlib
 import io
 import json
+import math
 import os
+import re
 import tempfile
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass, field
@@ -15,12 +18,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from orchestrate.freefem import REPO
+from orchestrate.freefem import REPO, InputError
 from orchestrate.manifest import (FACTS, MANIFEST, PARTS, STATE_ARRAYS, IncompleteRun, check_files,  # noqa: F401
                                   read_state, verify_manifest)
+from orchestrate.schema import shown
 
 if TYPE_CHECKING:  # meshio is imported where a field is read: a run that reads none never loads it
     import meshio
+
+# A time asked of a run's outputs (grid, fields, render --time) is the output time within this
+# fraction of the run's T, and no other: round-off in a time typed or computed, never another step.
+SAME_TIME = 1e-9
+STEP = re.compile(r"_([0-9]+)\.vtu$")  # a .vtu's step n in its name (edp/lib/output.idp)
 
 
 @dataclass(frozen=True)
@@ -84,15 +93,45 @@ class Result:
 
     @cached_property
     def outputs(self) -> list[tuple[float, dict[str, str]]]:
-        """(time, {part: .vtu file name}) for every output time in solution.pvd, in time order."""
+        """(time, {part: .vtu file name}) for every output in solution.pvd, in time order: the files
+        of each step n (their names give it) at t = n·k, the driver's own time (params_used.json's
+        k), not the .pvd's, which has 6 digits: 0.0333333 for 1/30, and one time for two steps
+        closer than that."""
         if "solution.pvd" not in self.files:
             return []
-        by_time: dict[float, dict[str, str]] = {}
+        by_step: dict[int, dict[str, str]] = {}
         for dataset in ElementTree.fromstring(self.read("solution.pvd")).iter("DataSet"):
-            time = float(dataset.get("timestep"))
-            part = PARTS[int(dataset.get("part"))]
-            by_time.setdefault(time, {})[part] = dataset.get("file")
-        return sorted(by_time.items())
+            name = dataset.get("file")
+            by_step.setdefault(int(STEP.search(name)[1]), {})[PARTS[int(dataset.get("part"))]] = name
+        return [(step * self.params["k"], files) for step, files in sorted(by_step.items())]
+
+    def output_at(self, time: float | None, parts=(), option: str = "time") -> tuple[float, dict[str, str]]:
+        """The output (time, files) holding `parts` at `time` (default: the last): the one whose
+        time is within SAME_TIME·T of it. A time no output has is refused, named as `option`, with
+        the nearest output times: a field is never taken from another time than the one asked."""
+        unknown = [part for part in parts if part not in PARTS]
+        if unknown:
+            raise InputError(f"part {shown(unknown[0])}: a run's parts are {', '.join(PARTS)}")
+        written = [(t, files) for t, files in self.outputs if set(parts) <= set(files)]
+        if not written:
+            raise FileNotFoundError(f"{self.folder} has no {' or '.join(parts) or '.vtu'} output files (output.times, "
+                                    "output.fields)")
+        if time is None:
+            return written[-1]
+        times = [t for t, _ in written]
+        try:
+            asked = math.nan if isinstance(time, bool) else float(time)  # True is no time 1
+        except (TypeError, ValueError):
+            asked = math.nan
+        place = bisect.bisect_left(times, asked) if math.isfinite(asked) else None
+        near = [] if place is None else [j for j in (place - 1, place) if 0 <= j < len(times)]
+        for j in near:
+            if abs(times[j] - asked) <= SAME_TIME * self.params["T"]:
+                return written[j]
+        nearest = f"; the nearest: t = {' and '.join(f'{times[j]:.12g}' for j in near)}" if near else ""
+        raise InputError(f"{option} {shown(time if math.isnan(asked) else asked)}: not an output time of "
+                         f"{self.folder} (its {len(times)} output times run from {times[0]:.12g} to "
+                         f"{times[-1]:.12g}{nearest}; a time is an output's within {SAME_TIME:g}·T)")
 
     def mesh_snapshot(self, body: int, target: Path) -> Path:
         """A body's mesh copied to `target`: the run folder's own, as checked (runs of orchestrate),
@@ -121,21 +160,16 @@ class Result:
 
     def fields(self, part: str, time: float | None = None) -> meshio.Mesh:
         """The mesh and fields of one part ("body1", "body2", "contact") at an output time
-        (default: the last one written)."""
-        if not self.outputs:
-            raise FileNotFoundError(f"{self.folder} has no .vtu output (see the outTimes parameter)")
-        if time is None:
-            files = self.outputs[-1][1]
-        else:
-            times = np.array([t for t, _ in self.outputs])
-            files = self.outputs[int(np.argmin(abs(times - time)))][1]
+        (default: the last one written; another time is refused: output_at)."""
         import meshio
 
+        name = self.output_at(time, (part,))[1][part]
         with tempfile.TemporaryDirectory() as scratch:  # meshio reads a path: the bytes checked, in a private copy
-            return meshio.read(self.snapshot(files[part], Path(scratch) / "part.vtu"))
+            return meshio.read(self.snapshot(name, Path(scratch) / "part.vtu"))
 
     def grid(self, part: str, time: float | None = None):
-        """One part at an output time (default the last) as a pyvista dataset, for pyvista's own
+        """One part at an output time (default the last; a time within 1e-9·T of an output's is
+        that output's, any other is refused naming the nearest) as a pyvista dataset, for pyvista's own
         filters: a body's triangles with u, ζ (point data) and the stresses (cell data: one value
         a triangle), the contact line with gap, pressure and slip. u has a zero third component,
         so `grid.warp_by_vector("u", factor=10)` draws the deformed body, and

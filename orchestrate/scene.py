@@ -24,8 +24,8 @@ from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import TIME_LIMIT, geo_constants
 from orchestrate.parameters import PARAMETERS, driver_values, field, unbounded_field
-from orchestrate.schema import (Boolean, Check, Choice, Custom, Integer, Key, ListOf, MapOf, Number, Optional, Table,
-                                TableOf, Tagged, Text, Then, TupleOf, ValidationError, after, problem)
+from orchestrate.schema import (PATH_MAX, Boolean, Check, Choice, Custom, Integer, Key, ListOf, MapOf, Number, Optional,
+                                Table, TableOf, Tagged, Text, Then, TupleOf, ValidationError, after, problem, shown)
 
 
 class SceneError(InputError):
@@ -41,7 +41,7 @@ def _expression(value):
         except OverflowError:  # an integer beyond every double
             finite = False
         if not finite:
-            raise ValueError(f"the number {str(value)[:40]} is not a finite double")
+            raise ValueError(f"the number {shown(value)} is not a finite double")
         value = repr(value)
     value = value.strip()  # spaces around an expression change nothing: "-10*t " is "-10*t", one run
     try:
@@ -92,7 +92,7 @@ def _contact_labels(value):
         raise ValueError("give a boundary label or a list of them, like 3 or [1, 5]")
     for label in labels:
         if not isinstance(label, int) or isinstance(label, bool) or not LABEL["ge"] <= label <= LABEL["le"]:
-            raise ValueError(f"{label!r} is not a boundary label (allowed: integers in "
+            raise ValueError(f"{shown(label)} is not a boundary label (allowed: integers in "
                              f"{PARAMETERS['contactLabel'].range}, one or a list)")
     if len(set(labels)) < len(labels):
         raise ValueError("a label is named twice")
@@ -109,7 +109,8 @@ def geo_path(value: str, folder: Path) -> Path:
         beside, project = folder / path, REPO / path
         in_meshes = project.resolve().is_relative_to(MESHES.resolve())
         if not os.path.lexists(beside) and not (in_meshes and os.path.lexists(project)):
-            raise GeoError(f"gmsh source '{value}' not found beside the scene file ({beside})"
+            raise GeoError(f"gmsh source {shown(value, limit=PATH_MAX)} not found beside the scene file "
+                           f"({shown(str(beside), False, PATH_MAX)})"
                            + (f" nor in the repository ({project})" if in_meshes else ""))
         path = beside if os.path.lexists(beside) else project
     return read_sources(path)[0].path
@@ -133,7 +134,7 @@ def sizes_file(value: str, context: dict) -> str:
     if not path.is_absolute():
         path = scene_folder(context) / path
     if not path.is_file():
-        raise ValueError(f"sizes: {path} is not a file")
+        raise ValueError(f"sizes: {shown(str(path), False, PATH_MAX)} is not a file")
     return str(path.resolve())
 
 
@@ -416,7 +417,7 @@ def _output_times(value):
         raise ValueError('give "final", "all", "none" or a list of times in (0, T]')
     for time in value:
         if isinstance(time, bool) or not isinstance(time, (int, float)) or not -1e308 < time < 1e308:
-            raise ValueError(f"{repr(time)[:40]} is not a time: give numbers in (0, T]")
+            raise ValueError(f"{shown(time)} is not a time: give numbers in (0, T]")
     return [float(time) for time in value]
 
 
@@ -505,9 +506,11 @@ def parse_value(text: str):
 
 
 def read_toml(path: Path, kind: str) -> dict:
-    """A TOML file (a scene, a sweep's grid) as data; any reason it cannot be read is a SceneError."""
+    """A TOML file (a scene, a sweep's grid) as data; any reason it cannot be read is a SceneError. A
+    byte-order mark before the first line (editors on Windows write one into UTF-8 files) is
+    skipped: TOML allows it (a valid UTF-8 document, toml-lang/toml#437), Python's reader does not."""
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except FileNotFoundError:
         raise SceneError(f"{kind} file {path} not found") from None
     except IsADirectoryError:
@@ -545,7 +548,15 @@ def resolve_keys(data: dict, keys, option: str = "--set") -> dict[str, str]:
     return fields
 
 
+# The longest key a scene has (body1.mesh.parameters. and a 64-character name) with room to spare:
+# a longer one is a slip (a value pasted as a key), refused before any message repeats it.
+LONGEST_KEY = 200
+
+
 def _by_index(data: dict, key: str, option: str) -> str:
+    if len(key) > LONGEST_KEY:
+        raise SceneError(f"{option} {shown(key, False)}: no scene key is that long ({len(key)} characters; keys "
+                         "such as time.N, body1.boundary[label=4].fy: docs/scene-format.md lists them)")
     node, parts = data, []
     for part in key.split("."):
         if "[" not in part and "]" not in part:
@@ -585,8 +596,8 @@ def _labelled(items: list, label: int, context: str, where: str) -> int:
              and item["label"] == label]
     if len(found) == 1:
         return found[0]
-    held = ", ".join(f"{i} {item.get('type', '?')} on label {item.get('label', '?')}" if isinstance(item, dict)
-                     else f"{i} {item!r}" for i, item in enumerate(items))
+    held = ", ".join(f"{i} {shown(item.get('type', '?'), False)} on label {shown(item.get('label', '?'), False)}"
+                     if isinstance(item, dict) else f"{i} {shown(item)}" for i, item in enumerate(items))
     if not found:
         raise SceneError(f"{context}no condition of {where} is on label {label} (its conditions: {held})")
     raise SceneError(f"{context}label {label} carries {len(found)} conditions of {where} ({held}): address "
@@ -663,11 +674,11 @@ def describe(error: dict) -> str:
     """One line naming the key, the value and what is allowed."""
     raw = tuple(error["loc"])
     location = tuple(part for part in raw if part not in BOUNDARY_TYPES)
-    key = ".".join(str(part) for part in location) or "scene"
+    key = shown(".".join(str(part) for part in location), False) or "scene"
     if error["type"] == "extra_forbidden":
         parent = _table_at(raw[:-1])
         names = list(parent.keys) if parent else []
-        close = difflib.get_close_matches(str(raw[-1]), names, n=1, cutoff=0.5)
+        close = difflib.get_close_matches(str(raw[-1])[:100], names, n=1, cutoff=0.5)
         hint = f"did you mean '{close[0]}'?" if close else f"valid keys: {', '.join(names)}"
         return f"{key}: unknown key ({hint})"
     if error["type"] == "missing":
@@ -675,7 +686,7 @@ def describe(error: dict) -> str:
     message = error["msg"]
     if error["type"] in ("model_type", "dict_type") or "input" not in error or is_table(error["input"]):
         return f"{key}: {message}"
-    return f"{key} = {error['input']!r}: {message}"
+    return f"{key} = {shown(error['input'])}: {message}"
 
 
 # --- TOML writing (the scene as run) ---------------------------------------------------------

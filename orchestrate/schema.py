@@ -39,6 +39,19 @@ class ValidationError(ValueError):
         return self.problems
 
 
+ECHOED = 60  # characters of a value a message repeats: a 5 MB title is named by its start and length
+PATH_MAX = 4096  # Linux's longest path: a path is repeated whole up to it, and a longer text is no path
+
+
+def shown(value, quoted: bool = True, limit: int = ECHOED) -> str:
+    """A value as a message repeats it: its repr (a text as it is, unless `quoted`), cut to `limit`
+    characters when longer (a text with its length), so that the line stays one a reader can take in."""
+    text = repr(value) if quoted or not isinstance(value, str) else value
+    if len(text) <= limit:
+        return text
+    return text[:limit - 1] + "…" + (f" ({len(value)} characters)" if isinstance(value, str) else "")
+
+
 def problem(kind: str, message: str, value) -> Invalid:
     return Invalid([{"loc": (), "type": kind, "msg": message, "input": value}])
 
@@ -292,8 +305,9 @@ class Tagged(Check):
         name = value[self.tag]
         table = self.tables.get(name) if isinstance(name, str) else None
         if table is None:
-            raise problem("union_tag_invalid", f"Input tag '{name}' found using '{self.tag}' does not match any of the "
-                                               f"expected tags: {', '.join(repr(t) for t in self.tables)}", value)
+            expected = ", ".join(repr(t) for t in self.tables)
+            raise problem("union_tag_invalid", f"Input tag {shown(name)} found using '{self.tag}' does not match any "
+                                               f"of the expected tags: {expected}", value)
         try:
             return table.checked(value, context)
         except Invalid as error:

@@ -10,10 +10,14 @@ combination, so two combinations never share one. A failed run is recorded with 
 others go on. A folder is skipped only when its manifest is whole and records the same inputs
 (scene after overrides, solver sources, what determines the meshes: runner.inputs_of), so an
 interrupted sweep started again runs only what is missing, and an edited input runs again.
-`sweep.csv` has a row per run, written even when the sweep is interrupted.
+`sweep.csv` has a row per run, written even when the sweep is interrupted. A sweep into the folder
+of an earlier one adds to its table: the earlier rows are kept (a combination run again replaces
+its row), the columns are the union of the swept keys, and a row's cell of a key its sweep did not
+sweep holds the value its run ran with (blank for a run that never started).
 """
 from __future__ import annotations
 
+import csv
 import hashlib
 import itertools
 import json
@@ -27,12 +31,14 @@ from pathlib import Path
 from orchestrate.arguments import split_assignment
 from orchestrate.formats import SWEEP_COLUMNS, SWEEP_FIGURES
 from orchestrate.freefem import InputError
-from orchestrate.manifest import IncompleteRun, verify_manifest
+from orchestrate.manifest import IncompleteRun
 from orchestrate.outputs import claim_growing_folder, write_csv
 from orchestrate.parameters import scene_value
 from orchestrate.progress import counter, wanted
+from orchestrate.results import Result, load_result
 from orchestrate.runner import SUFFIXES, inputs_of, run, signals_as_interrupt
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
+from orchestrate.schema import shown
 
 FIGURES = SWEEP_FIGURES  # the history's final values a row holds (edp/lib/formats.toml, [sweep])
 
@@ -50,7 +56,7 @@ def parse_grid(items: list[str]) -> dict[str, list]:
         key, text = split_assignment(item, "--grid", "key=value1,value2,... or key=[value1, value2, ...]",
                                      "time.N=20,40")
         if key in grid:
-            raise SceneError(f"--grid {key} is given twice: list all its values in one --grid")
+            raise SceneError(f"--grid {shown(key, False)} is given twice: list all its values in one --grid")
         grid[key] = grid_values(key, text)
     return grid
 
@@ -63,7 +69,7 @@ def grid_values(key: str, text: str) -> list:
         try:
             values = tomllib.loads(f"values = {text}")["values"]
         except tomllib.TOMLDecodeError as error:
-            raise SceneError(f"--grid {key}={text}: not a TOML list ({error}); write {GRID_FORMS}, "
+            raise SceneError(f"--grid {shown(f'{key}={text}', False)}: not a TOML list ({error}); write {GRID_FORMS}, "
                              f"e.g. --grid {LIST_EXAMPLE}") from None
         except RecursionError:
             raise too_deep(f"--grid {key}") from None
@@ -72,9 +78,10 @@ def grid_values(key: str, text: str) -> list:
     pieces = [piece.strip() for piece in text.split(",")]
     for piece in pieces:
         if not piece or cut_short(piece):
-            what = "an empty value" if not piece else f"'{piece}' is part of a value cut at a comma"
-            raise SceneError(f"--grid {key}={text}: {what}; KEY=V1,V2 splits at every comma: give the values as a "
-                             f"TOML list, --grid '{key}=[V1, V2, ...]', e.g. --grid {LIST_EXAMPLE}")
+            what = "an empty value" if not piece else f"{shown(piece)} is part of a value cut at a comma"
+            raise SceneError(f"--grid {shown(f'{key}={text}', False)}: {what}; KEY=V1,V2 splits at every comma: give "
+                             f"the values as a TOML list, --grid '{shown(key, False)}=[V1, V2, ...]', e.g. --grid "
+                             f"{LIST_EXAMPLE}")
     return [parse_value(piece) for piece in pieces]
 
 
@@ -128,15 +135,16 @@ def _flatten(table: dict, prefix: str, grid: dict, path: Path) -> None:
     for name, value in table.items():
         key = prefix + name
         if isinstance(value, dict) and prefix.count(".") >= MAX_NESTING:
-            raise SceneError(f"grid file {path}: {key[:80]}... nests tables more than {MAX_NESTING} deep: no scene "
-                             "key is that long (e.g. body1.boundary.1.fy)")
+            raise SceneError(f"grid file {path}: {shown(key, False)} nests tables more than {MAX_NESTING} deep: no "
+                             "scene key is that long (e.g. body1.boundary.1.fy)")
         if isinstance(value, dict):
             _flatten(value, f"{key}.", grid, path)
         elif not isinstance(value, list):
-            raise SceneError(f"grid file {path}: {key} = {value!r} is not a list: give its values as one, "
-                             f"e.g. {key} = [{value!r}, ...] (a list of lists to sweep a list)")
+            raise SceneError(f"grid file {path}: {shown(key, False)} = {shown(value)} is not a list: give its values "
+                             f"as one, e.g. {shown(key, False)} = [{shown(value)}, ...] (a list of lists to sweep a "
+                             "list)")
         elif key in grid:
-            raise SceneError(f"grid file {path}: {key} is given twice: list all its values once")
+            raise SceneError(f"grid file {path}: {shown(key, False)} is given twice: list all its values once")
         else:
             require_shallow(value, f"grid file {path}: {key}")
             grid[key] = value
@@ -148,7 +156,7 @@ def grid_of(items: list[str], path: str | Path | None) -> dict[str, list]:
     grid = read_grid_file(path) if path else {}
     for key, values in parse_grid(items).items():
         if key in grid:
-            raise SceneError(f"--grid {key} is also in --grid-file {path}: give its values in one place")
+            raise SceneError(f"--grid {shown(key, False)} is also in --grid-file {path}: give its values in one place")
         grid[key] = values
     if not grid:
         raise SceneError(f"nothing to sweep: give --grid {GRID_FORMS}, or --grid-file FILE")
@@ -173,10 +181,10 @@ def require_distinct(grid: dict[str, list]) -> None:
     """A value listed twice would be the same run twice in one folder: refused."""
     for key, values in grid.items():
         if not values:
-            raise SceneError(f"--grid {key}: no values")
+            raise SceneError(f"--grid {shown(key, False)}: no values: list at least one")
         for index, value in enumerate(values):
             if any(type(value) is type(other) and value == other for other in values[:index]):
-                raise SceneError(f"--grid {key}: the value {value!r} is listed twice")
+                raise SceneError(f"--grid {shown(key, False)}: the value {shown(value)} is listed twice")
 
 
 def folder_name(assignment: dict) -> str:
@@ -191,28 +199,31 @@ def folder_name(assignment: dict) -> str:
 def run_one(scene_data: dict, folder: str, trust_geo: bool = False) -> dict:
     """Task of a worker: one run, never raising (its failure is a row of sweep.csv)."""
     try:
-        run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False, trust_geo=trust_geo)
+        result = run(Scene.model_validate(scene_data), folder, force=True, resume=True, progress=False,
+                     trust_geo=trust_geo)
+        return row_of(result, "completed")
     except Exception as error:  # a failed run is data for the sweep, not the end of it
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
-    return row_of(Path(folder), "completed")
 
 
-def row_of(folder: Path, status: str) -> dict:
-    summary = json.loads((folder / "summary.json").read_text())
+def row_of(result: Result, status: str) -> dict:
+    """A run's row of sweep.csv, from its summary.json as its manifest records it."""
+    summary = result.summary
     final = summary["final"]
     return {"status": status, "error": "", "warnings": "; ".join(summary.get("warnings", [])),
             "wallSeconds": summary.get("wallSeconds"),
             "contactItersPerStep": summary.get("contactItersPerStep"), **{name: final.get(name) for name in FIGURES}}
 
 
-def completed_before(folder: Path, digest: str) -> bool:
-    """The folder holds a whole run of exactly these inputs."""
+def completed_before(folder: Path, digest: str) -> Result | None:
+    """The folder's run when it is a whole run of exactly these inputs."""
     if not (folder / "manifest.json").is_file() or folder.is_symlink():
-        return False
+        return None
     try:
-        return verify_manifest(folder).get("inputs", {}).get("digest") == digest
-    except IncompleteRun:
-        return False
+        result = load_result(folder)
+        return result if json.loads(result.read("inputs.json")).get("digest") == digest else None
+    except (IncompleteRun, ValueError):
+        return None
 
 
 def require_importable_main() -> None:
@@ -291,11 +302,13 @@ def plan_runs(scene: str | Path, assignments: list[dict], out: Path, base: dict 
         row["folder"] = folder_name(resolved_values(resolved, assignment, fields))
         digest = inputs_of(resolved)["digest"]
         if digest in seen:
-            raise SceneError(f"--grid: {seen[digest]} and {assignment} are the same run: list each value once")
+            raise SceneError(f"--grid: {shown(seen[digest])} and {shown(assignment)} are the same run: list each value "
+                             "once")
         seen[digest] = assignment
         folder = out / row["folder"]
-        if completed_before(folder, digest):
-            row.update(row_of(folder, "skipped (complete)"))
+        done = completed_before(folder, digest)
+        if done:
+            row.update(row_of(done, "skipped (complete)"))
         else:
             jobs.append((row, resolved.model_dump(mode="json"), str(folder)))
     return rows, jobs
@@ -305,20 +318,74 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
           workers: int = 2, scheduler: str | None = None, progress: bool | str = "auto",
           yes: bool = False, trust_geo: bool = False) -> list[dict]:
     """Run every combination of `grid` (dotted scene keys → lists of values) over the scene with
-    `base` overrides; returns the rows of sweep.csv (written in `out`, also when interrupted). Keys
+    `base` overrides; returns its rows of sweep.csv (written in `out`, also when interrupted, after
+    the rows of earlier sweeps into `out`: the module's docstring). Keys
     are those of --set: `body1.boundary[label=4].fy` names a boundary condition by its label.
     progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py); yes:
     run more than MAX_UNASKED combinations; trust_geo: as for `run`."""
-    shown = wanted(progress)
+    visible = wanted(progress)
 
     out = Path(out).resolve()
     rows, jobs = plan(scene, grid, out, base, yes)
     claim_growing_folder(out, "sweep", ["sweep.csv"], [row["folder"] for row in rows], SUFFIXES)
+    earlier_keys, earlier = earlier_table(out / "sweep.csv")
     try:
-        run_jobs(jobs, workers, scheduler, shown, trust_geo)
+        run_jobs(jobs, workers, scheduler, visible, trust_geo)
     finally:
-        write_table(out / "sweep.csv", rows, list(grid))
+        keys = [*earlier_keys, *(key for key in grid if key not in earlier_keys)]
+        write_table(out / "sweep.csv", with_values_run(out, merged(earlier, rows), keys), keys)
     return rows
+
+
+def read_table(path: Path) -> tuple[list[str], list[dict]]:
+    """The swept keys (the columns before `folder`) and the rows of a sweep.csv."""
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+            columns = reader.fieldnames or []
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise InputError(f"{path} is not a sweep's table ({error})") from None
+    if "folder" not in columns:
+        raise InputError(f"{path} holds no sweep's rows (a header with the swept keys, then folder, status, ...)")
+    return columns[:columns.index("folder")], rows
+
+
+def earlier_table(path: Path) -> tuple[list[str], list[dict]]:
+    """The table of the sweeps into this folder before (none: no keys, no rows), read before anything
+    runs: one that cannot be read is refused, never written over."""
+    if not os.path.lexists(path):
+        return [], []
+    try:
+        return read_table(path)
+    except InputError as error:
+        raise InputError(f"--out {path.parent}: {error}: this sweep would add its rows to it; move it away to start "
+                         "a new table, or choose another --out") from None
+
+
+def merged(earlier: list[dict], rows: list[dict]) -> list[dict]:
+    """The earlier rows, each replaced by this sweep's row of the same run folder, then this sweep's others."""
+    by_folder = {row["folder"]: row for row in rows}
+    kept = [by_folder.pop(row["folder"], row) for row in earlier]
+    return kept + list(by_folder.values())
+
+
+def with_values_run(out: Path, rows: list[dict], keys: list[str]) -> list[dict]:
+    """The rows with a value for each key: a key a row's sweep did not sweep has the value its run
+    ran with, from the scene.toml of its folder, or of the folder a failed or interrupted run left
+    (blank where none is: a run that never started)."""
+    return [{**row, **{key: value_run(out / row["folder"], key) for key in keys if key not in row}} for row in rows]
+
+
+def value_run(folder: Path, key: str):
+    for scene in (folder.with_name(folder.name + suffix) / "scene.toml" for suffix in ("", ".failed", ".partial")):
+        try:
+            data = tomllib.loads(scene.read_text(encoding="utf-8"))
+            return scene_value(data, resolve_keys(data, [key])[key])
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, SceneError, KeyError, IndexError, ValueError,
+                TypeError):
+            continue
+    return ""
 
 
 def mark_interrupted(jobs) -> None:

@@ -67,6 +67,40 @@ def test_a_size_field_needs_a_geo_that_can_drop_its_transfinite_lines(tmp_path):
     assert scene.body1.mesh.numbers()["adapted"] == 1 and "adapted" not in scene.body2.mesh.numbers()
 
 
+@pytest.mark.unit
+@pytest.mark.parametrize("overrides, words", [
+    ({"output.fields": ["bodies", "contact"]}, "output.fields = ['bodies', 'contact']: adapt estimates each run from "
+                                               'the states it saves: add "state"'),
+    ({"output.times": "none"}, 'output.times = "none": adapt estimates each run from the states')])
+def test_a_scene_whose_runs_save_no_state_is_refused_before_the_pilot_runs(tmp_path, overrides, words):
+    """The estimate reads the states a run saves: without them the pilot ran, then the loop failed."""
+    from orchestrate.adapt import adapt
+    from orchestrate.freefem import InputError
+
+    with pytest.raises(InputError) as error:
+        adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapt", 0.01, overrides=overrides)
+    assert words in str(error.value) and not any(tmp_path.iterdir())
+
+
+@pytest.mark.unit
+def test_a_mesh_key_adapt_cannot_honour_is_refused_before_anything_runs(tmp_path, capsys):
+    """mesh.refine splits every triangle of a mesh, a design's too: the loop ran its designs 4^refine
+    times finer than they were designed, without a word. Refused, naming the key and what to give."""
+    from orchestrate.adapt import adapt
+    from orchestrate.cli import main
+    from orchestrate.freefem import InputError
+
+    with pytest.raises(InputError, match=r"body2.mesh.refine = 1: .* 4 times the triangles designed: give the "
+                                         r"pilot's fineness by body2.mesh.n, with --set body2.mesh.refine=0"):
+        adapt(REPO / "scenes" / "paper.toml", tmp_path / "adapt", 0.01, overrides={"body2.mesh.refine": 1})
+    scene = tmp_path / "refined.toml"
+    scene.write_text((REPO / "scenes" / "paper.toml").read_text().replace('"meshes/', f'"{REPO}/meshes/')
+                     .replace("n = 24\n", "n = 24\nrefine = 2\n", 1))
+    assert main(["adapt", str(scene), "--target", "0.01", "--out", str(tmp_path / "cli")]) == 2
+    assert "body1.mesh.refine = 2" in capsys.readouterr().err
+    assert not any(tmp_path.glob("adapt*")) and not (tmp_path / "cli").exists()
+
+
 PILOT = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.scheme": "bdf2", "time.N": 10, "output.images": False}
 
 

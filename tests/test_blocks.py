@@ -265,6 +265,15 @@ def test_compare_refuses_other_bodies_and_runs_without_states(blocks, tmp_path):
         paired_states(blocks, Result(tmp_path / "empty"), tmp_path)
 
 
+def test_the_command_refuses_to_compare_a_run_with_itself_before_anything_is_written(blocks, tmp_path, capsys):
+    """Its distances would all be 0, a report that reads as two runs agreeing (compare() takes one:
+    the distance to itself is a check of errors.edp, tests/test_study.py)."""
+    from orchestrate.cli import main
+
+    assert main(["compare", str(blocks.folder), str(blocks.folder / "."), "--out", str(tmp_path / "same")]) == 2
+    assert "RUN_A and RUN_B are both" in capsys.readouterr().err and not (tmp_path / "same").exists()
+
+
 def test_compare_reads_a_run_s_mesh_in_freefem_s_format_as_in_gmsh_s(tmp_path):
     """A run holds a mesh with triangles below gmshload's area limit in FreeFEM's format
     (orchestrate/mesh.py, write_freefem): compare reads it as the same nodes and triangles."""
@@ -309,6 +318,7 @@ def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(t
     own instant, never with a neighbour that lies within an absolute tolerance; at the finer run's
     instant between two of the coarser run's, the coarser state is their mean; before the coarser
     run's first state there is nothing to compare."""
+    import hashlib
     import json
 
     from orchestrate.compare import paired_states
@@ -323,16 +333,18 @@ def test_compare_pairs_the_states_of_the_same_instants_however_short_the_steps(t
         for j, name in enumerate(names, 1):  # every array [j, 10 j], the trace coordinates [0, 1]
             arrays = ["2\n0 1" if array == "s" else f"2\n{j} {10 * j}" for array in STATE_ARRAYS]
             (folder / name).write_text(f"{j * 1e-9 / steps!r}\n" + "\n".join(arrays) + "\n")
-        (folder / "run.json").write_text(json.dumps({"files": names}))  # what compare reads, and nothing else
+        digests = {name: hashlib.sha256((folder / name).read_bytes()).hexdigest() for name in names}
+        (folder / "run.json").write_text(json.dumps({"files": names, "fileDigests": digests}))  # what compare reads
         return Result(folder)
 
     fine, coarse = fake("fine", 4), fake("coarse", 2)
     scratch = tmp_path / "scratch"
     scratch.mkdir()
     pairs = paired_states(fine, coarse, scratch)
-    assert [(a.name, b.name, which) for a, b, which in pairs] == [
-        ("state_0002.txt", "state_0001.txt", ""), ("state_0003.txt", "B_0001.txt", "B"),
-        ("state_0004.txt", "state_0002.txt", "")]
+    steps = 1e-9 / 4
+    assert [(read_state(a)["t"], read_state(b)["t"], which) for a, b, which in pairs] == [
+        (2 * steps, 2 * steps, ""), (3 * steps, pytest.approx(3 * steps, rel=1e-15), "B"), (4 * steps, 4 * steps, "")]
+    assert pairs[0][0].read_bytes() == (tmp_path / "fine" / "state_0002.txt").read_bytes()  # a saved state as it is
     middle = read_state(pairs[1][1])
     assert middle["t"] == pytest.approx(0.75e-9, rel=1e-15)
     np.testing.assert_allclose(middle["u1"], [1.5, 15.0], rtol=1e-15)

@@ -88,3 +88,36 @@ def test_an_existing_image_is_replaced_only_with_force_and_only_one_drawn_here(t
     with pytest.raises(InputError, match="link.png is a symbolic link: give another file name"):
         plot_sweep(table, "normV", target=table / "link.png", force=True)
     assert victim.read_bytes() == target.read_bytes()
+
+
+def test_a_log_axis_is_refused_where_a_value_is_not_positive_before_anything_is_drawn(tmp_path, capsys):
+    """matplotlib leaves every value ≤ 0 off a logarithmic axis without a word: an empty image (or a
+    curve cut short) that reads as complete. Refused, naming the column and its smallest value."""
+    rows = [{"glue.gammaNu": 0.0, "folder": "a", "status": "completed", "normV": 2.0, "contactForce": -3.0},
+            {"glue.gammaNu": 1.0, "folder": "b", "status": "completed", "normV": 1.0, "contactForce": 4.0}]
+    write_table(tmp_path / "sweep.csv", rows, ["glue.gammaNu"])
+    for y, log, words in (("contactForce", "y", ["--log y: contactForce goes down to -3", "without --log y"]),
+                          ("normV", "x", ["--log x: glue.gammaNu goes down to 0", "without --log x"]),
+                          ("contactForce", "xy", ["--log xy: glue.gammaNu goes down to 0"])):
+        assert main(["plot", str(tmp_path), "--y", y, "--log", log]) == 2
+        message = capsys.readouterr().err
+        assert all(word in message for word in words) and len(message.strip().splitlines()) == 1, message
+    assert main(["plot", str(tmp_path), "--y", "normV", "--log", "y"]) == 0  # all positive: drawn
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["normV-vs-glue.gammaNu.png", "sweep.csv"]
+
+
+def test_a_log_axis_of_words_is_refused_not_drawn_linear(table):
+    with pytest.raises(InputError, match=r"--log x: the values of body1.boundary.0.fy are not numbers .* without --log x"):
+        plot_sweep(table, "normV", x="body1.boundary.0.fy", log="x")
+    assert not list(table.glob("*.png"))
+
+
+def test_an_image_into_a_new_folder_makes_it_and_a_file_on_the_way_is_refused_before_drawing(table, capsys):
+    """As run --out makes its parents, plot --out does; a file where a folder should be is named."""
+    deep = table / "figures" / "sweep" / "normV.svg"
+    assert main(["plot", str(table), "--y", "normV", "--out", str(deep)]) == 0
+    assert deep.read_text().startswith("<?xml")
+    (table / "notes").write_text("the user's")
+    assert main(["plot", str(table), "--y", "normV", "--out", str(table / "notes" / "more" / "n.png")]) == 2
+    assert f"{table / 'notes'} is a file, not a folder" in capsys.readouterr().err
+    assert (table / "notes").read_text() == "the user's"

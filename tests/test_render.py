@@ -4,6 +4,7 @@ and history plots."""
 import subprocess
 import sys
 
+import meshio
 import numpy as np
 import pytest
 from PIL import Image
@@ -79,10 +80,59 @@ def test_render_draws_a_chosen_time_field_and_format(coarse, tmp_path):
                                  cwd=REPO, capture_output=True, text=True)
         assert refused.returncode == 2 and all(word in refused.stderr for word in words), refused.stderr
     signed = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out", str(tmp_path / "s"),
-                             "--fields", "sigma22", "--range", "sigma22=-20,20", "--time", "0.7"],
+                             "--fields", "sigma22", "--range", "sigma22=-20,20", "--time", "1"],
                             cwd=REPO, capture_output=True, text=True)
     assert signed.returncode == 0, signed.stderr
-    assert "--time 0.7: drawing t = 0.5, the nearest output time (written: 0.5, 1)" in signed.stdout
+
+
+@pytest.mark.parametrize("time, words", [("0.7", ["the nearest: t = 0.5 and 1"]), ("nan", ["from 0.5 to 1"]),
+                                         ("-inf", ["from 0.5 to 1"]), ("1.5", ["the nearest: t = 1;"])])
+def test_render_refuses_a_time_the_run_wrote_no_output_at_before_drawing(coarse, tmp_path, time, words):
+    """Its outputs are at 0.5 and 1 (output.times): any other time is refused, naming the option,
+    the range and the nearest output times, and no image is drawn."""
+    done = subprocess.run([sys.executable, "-m", "orchestrate", "render", str(coarse.folder), "--out",
+                           str(tmp_path / "images"), f"--time={time}"], cwd=REPO, capture_output=True, text=True)
+    assert done.returncode == 2 and f"error: --time {time}: not an output time" in done.stderr, done.stderr
+    assert all(word in done.stderr for word in words) and "Traceback" not in done.stderr, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and not (tmp_path / "images").exists()
+
+
+def test_a_field_is_the_one_of_the_time_asked_or_refused(coarse, tmp_path):
+    """grid(time=) gives the output at that time, to round-off (1e-9 of T), and refuses another
+    (it gave the nearest: 0.47 drew the output at 0.5); an output's time is its step's t as the
+    driver wrote it in history.csv, to the last digit, not the .pvd's six (1/30 there is 0.0333333)."""
+    from orchestrate.freefem import InputError
+
+    half = coarse.grid("body1", 0.5)
+    assert np.array_equal(coarse.grid("body1", 0.5 * (1 + 1e-12))["u"], half["u"])
+    assert not np.array_equal(coarse.grid("body1", 1.0)["u"], half["u"])
+    for time in (0.47, 0.5 * (1 + 1e-6), 0.0, float("nan"), True, "half"):
+        with pytest.raises(InputError, match="not an output time"):
+            coarse.grid("body1", time)
+    with pytest.raises(InputError, match="part 'bodyl': a run's parts are body1, body2, contact"):
+        coarse.grid("bodyl", 0.5)
+    with pytest.raises(InputError, match=r"time 0.47: .*2 output times run from 0.5 to 1; the nearest: t = 0.5"):
+        coarse.grid("contact", 0.47)
+    every = run(REPO / "scenes" / "paper.toml", tmp_path / "every",
+                {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": 30, "output.times": "all", "output.images": False})
+    assert [t for t, _ in every.outputs] == list(every.history["t"])  # the driver's t of each step, 17 digits
+    first = every.fields("body2", 1 / 30).point_data["u"]
+    assert np.array_equal(first, meshio.read(every.folder / "body2_0001.vtu").point_data["u"])
+
+
+def test_a_history_column_on_a_log_axis_or_against_itself_is_refused(coarse, tmp_path, capsys):
+    """body 2 is pressed down: its forceY2 is negative, which a log axis would drop, leaving an
+    empty image; t against t means nothing. Both refused, nothing drawn."""
+    force = np.genfromtxt(coarse.folder / "history.csv", delimiter=",", names=True)["forceY2"]
+    assert force.min() < 0
+    assert main(["plot", str(coarse.folder), "--y", "forceY2", "--log", "y", "--out", str(tmp_path / "f.png")]) == 2
+    assert f"--log y: forceY2 goes down to {force.min():.6g}" in capsys.readouterr().err
+    assert main(["plot", str(coarse.folder), "--y", "t", "--out", str(tmp_path / "t.png")]) == 2
+    assert "--x and --y are both t" in capsys.readouterr().err
+    assert main(["plot", str(coarse.folder), "--y", "forceY1", "--x", "forceY2", "--log", "x",
+                 "--out", str(tmp_path / "x.png")]) == 2
+    assert "--log x: forceY2 goes down" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
 
 
 def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, tmp_path, capsys):
@@ -100,6 +150,22 @@ def test_render_out_takes_a_new_folder_and_replaces_only_its_own_images(coarse, 
     (out / "notes.txt").write_text("the user's")
     assert main(["render", str(coarse.folder), "--out", str(out), "--force"]) == 2
     assert "also holds notes.txt" in capsys.readouterr().err and (out / "notes.txt").exists()
+
+
+@pytest.mark.unit
+@pytest.mark.parametrize("options, words", [(["--cmap", "nope"], "--cmap nope: not a matplotlib colormap"),
+                                            (["--magnification", "nan"], "--magnification nan: give a finite number"),
+                                            (["--range", "per-body", "--range", "zeta=0,1"], "give one kind"),
+                                            (["--fields", "zeta,vonMises,zeta"], "names a field twice")])
+def test_a_bad_render_option_is_an_input_error_before_the_run_is_read(tmp_path, capsys, options, words):
+    """Exit 2, as every other refused input (they ended as run-time errors, exit 1; a field named
+    twice was drawn twice)."""
+    try:
+        code = main(["render", str(tmp_path / "no-run"), "--out", str(tmp_path / "images"), *options])
+    except SystemExit as exit:  # argparse's own refusal
+        code = exit.code
+    assert code == 2
+    assert words in capsys.readouterr().err and not any(tmp_path.iterdir())
 
 
 @pytest.mark.unit
@@ -121,17 +187,21 @@ def test_the_images_label_the_scenes_units(tmp_path):
 
     from orchestrate.render import field_titles, units_of
 
+    def run_in(folder):  # what units_of reads of a run: its files and their bytes
+        return SimpleNamespace(files=[path.name for path in folder.glob("scene.toml")],
+                               read=lambda name: (folder / name).read_bytes())
+
     (tmp_path / "scene.toml").write_text('[output]\nunits = "mm-N-s"\n')
-    units = units_of(SimpleNamespace(folder=tmp_path))
+    units = units_of(run_in(tmp_path))
     assert units == {"length": "mm", "stress": "MPa", "force": "N/mm", "energy": "N·mm/mm", "time": "s"}
     assert field_titles(units)["vonMises"] == "von Mises stress (MPa)"
-    assert units_of(SimpleNamespace(folder=tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
+    assert units_of(run_in(tmp_path / "by-hand"))["stress"] == "N/m²"  # no scene: SI
     # a scene's own set: a stress is force/length², a force per unit thickness force/length
     (tmp_path / "scene.toml").write_text('[output.units]\nlength = "mm"\nforce = "mN"\ntime = "ms"\n')
-    assert units_of(SimpleNamespace(folder=tmp_path)) == {"length": "mm", "stress": "mN/mm²", "force": "mN/mm",
-                                                          "energy": "mN·mm/mm", "time": "ms"}
+    assert units_of(run_in(tmp_path)) == {"length": "mm", "stress": "mN/mm²", "force": "mN/mm",
+                                          "energy": "mN·mm/mm", "time": "ms"}
     (tmp_path / "scene.toml").write_text('[output.units]\nlength = "m$^2$"\n')  # edited by hand: never printed
-    assert units_of(SimpleNamespace(folder=tmp_path))["length"] == "m"
+    assert units_of(run_in(tmp_path))["length"] == "m"
 
 
 def test_every_history_column_of_a_quantity_is_labelled_with_its_unit(coarse):

@@ -198,3 +198,63 @@ def test_a_label_selected_by_label_cannot_be_reassigned_and_a_body_s_error_is_on
     assert str(error.value).splitlines()[1:] == ["body1: label 5: a traction on a boundary whose displacement is "
                                                  "prescribed"]
     assert Scene.load(REPO / "scenes" / "paper.toml", {"body1.boundary.1.label": 3}).body1.boundary[1].label == 3
+
+
+HUGE = "x" * 5 * 2 ** 20  # a 5 MB text pasted where a value goes
+
+
+@pytest.mark.parametrize("key", ["title", "body1.mesh.contactLabel", "glue.gammaNu", "body1.boundary[label=4].fy"])
+def test_a_huge_value_is_named_by_its_start_and_length_not_repeated_whole(key):
+    with pytest.raises(SceneError) as error:
+        Scene.load(REPO / "scenes" / "paper.toml", {key: HUGE if key != "body1.boundary[label=4].fy" else [HUGE]})
+    message = str(error.value)
+    assert key in message and len(message) < 500, message[:1000]
+    assert key.endswith(".fy") or f"({len(HUGE)} characters)" in message
+
+
+def test_a_huge_key_or_grid_value_is_not_repeated_whole():
+    from orchestrate.arguments import parse_assignments
+    from orchestrate.sweep import parse_grid
+
+    for attempt in (lambda: Scene.load(REPO / "scenes" / "paper.toml", {HUGE: 1}),
+                    lambda: parse_assignments([HUGE], "--set"),
+                    lambda: parse_grid([f"body1.boundary[label=4].fy={HUGE}(,1"]),
+                    lambda: parse_grid([f"time.N=[{HUGE}"])):
+        with pytest.raises(SceneError) as error:
+            attempt()
+        assert len(str(error.value)) < 700, str(error.value)[:1000]
+
+
+def test_a_scene_file_that_begins_with_a_byte_order_mark_is_the_same_scene(tmp_path):
+    """Editors on Windows begin UTF-8 files with U+FEFF; TOML takes it as the encoding's mark,
+    Python's tomllib as a stray character of line 1."""
+    path = tmp_path / "scene.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + PAPER.replace('"meshes/', f'"{REPO}/meshes/').encode())
+    assert Scene.load(path) == Scene.load(REPO / "scenes" / "paper.toml")
+    grid = tmp_path / "grid.toml"
+    grid.write_bytes(b"\xef\xbb\xbf" + b"[glue]\ngammaNu = [0, 1]\n")
+    from orchestrate.sweep import read_grid_file
+
+    assert read_grid_file(grid) == {"glue.gammaNu": [0, 1]}
+
+
+def test_an_unquoted_inf_is_refused_saying_how_to_write_it(tmp_path, capsys):
+    """TOML reads a bare inf as a float; debondMobility's infinity is the word "inf". The message
+    gives the forms to write, and those forms load."""
+    from orchestrate.arguments import parse_assignments
+    from orchestrate.cli import main
+
+    path = tmp_path / "scene.toml"
+    path.write_text(PAPER.replace("[glue]\n", "[glue]\ndebondMobility = inf\n", 1).replace('"meshes/', f'"{REPO}/meshes/'))
+    with pytest.raises(SceneError) as error:
+        Scene.load(path)
+    assert 'glue.debondMobility = inf: ' in str(error.value) and 'debondMobility = "inf"' in str(error.value)
+    assert main(["run", str(REPO / "scenes" / "paper.toml"), "--set", "glue.debondMobility=inf",
+                 "--out", str(tmp_path / "run")]) == 2
+    message = capsys.readouterr().err
+    assert "--set glue.debondMobility = inf" in message and "--set 'glue.debondMobility=\"inf\"'" in message
+    path.write_text(path.read_text().replace("debondMobility = inf", 'debondMobility = "inf"'))
+    assert Scene.load(path).glue.debondMobility == "inf"
+    advised = parse_assignments(['glue.debondMobility="inf"'], "--set")  # the shell's quotes removed
+    assert Scene.load(REPO / "scenes" / "paper.toml", advised).glue.debondMobility == "inf"
+    assert not (tmp_path / "run").exists()

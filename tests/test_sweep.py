@@ -10,6 +10,7 @@ import sys
 import pytest
 
 from orchestrate import SceneError, sweep
+from orchestrate.cli import main
 from orchestrate.freefem import REPO
 from orchestrate.freefem import InputError
 from orchestrate.plot import history_runs, plot_columns
@@ -253,6 +254,59 @@ def test_a_grid_nested_too_deeply_names_its_file(tmp_path):
     assert grid_of([], path) == {"output.times": [[0.5, 1.0], [1.0]]}
     with pytest.raises(SceneError, match="--grid time.N: its values nest lists or tables more than 16 deep"):
         grid_of(["time.N=" + "[" * 3000 + "]" * 3000], None)
+
+
+def table_of(out):
+    """sweep.csv's swept keys (its columns before folder) and each row's values of them and status."""
+    with open(out / "sweep.csv", newline="") as handle:
+        reader = csv.DictReader(handle)
+        rows, columns = list(reader), reader.fieldnames
+    keys = columns[:columns.index("folder")]
+    return keys, [{key: row[key] for key in (*keys, "status")} for row in rows]
+
+
+@pytest.mark.unit
+def test_a_second_sweep_into_a_folder_adds_its_rows_to_the_table_and_keeps_the_first_s(tmp_path, capsys):
+    """Sweeps whose runs are all refused by the scene's checks (nothing runs): the second one's table
+    held its own rows alone, and the first's were lost. Now one table: the first's rows, then the
+    second's, under the union of their keys; a run of neither sweep's other key has no value there
+    (it never started)."""
+    sweep(SCENE, {"glue.gammaNu": [-1.0, -2.0]}, tmp_path, BASE, progress=False)
+    assert main(["sweep", str(SCENE), "--grid", "body1.material.E=-5.0", "--out", str(tmp_path),
+                 *(f"--set={key}={value}" for key, value in BASE.items() if key != "output.images")]) == 1
+    assert f"table: {tmp_path / 'sweep.csv'} (with the 2 rows of earlier sweeps" in capsys.readouterr().out
+    assert table_of(tmp_path) == (["glue.gammaNu", "body1.material.E"],
+                                  [{"glue.gammaNu": "-1.0", "body1.material.E": "", "status": "invalid"},
+                                   {"glue.gammaNu": "-2.0", "body1.material.E": "", "status": "invalid"},
+                                   {"glue.gammaNu": "", "body1.material.E": "-5.0", "status": "invalid"}])
+    sweep(SCENE, {"glue.gammaNu": [-2.0, -3.0]}, tmp_path, BASE, progress=False)  # -2.0 again: its row, once
+    assert [row["glue.gammaNu"] for row in table_of(tmp_path)[1]] == ["-1.0", "-2.0", "", "-3.0"]
+    (tmp_path / "sweep.csv").write_bytes(b"\xff\xfe not a table")
+    with pytest.raises(InputError, match=r"sweep.csv is not a sweep's table .* move it away to start a new table"):
+        sweep(SCENE, {"glue.gammaNu": [-4.0]}, tmp_path, BASE, progress=False)
+    assert (tmp_path / "sweep.csv").read_bytes() == b"\xff\xfe not a table"
+
+
+def test_a_second_sweep_s_rows_give_the_first_s_key_the_value_their_runs_ran_with(tmp_path):
+    """One table of both sweeps: each run's value of the key its sweep did not sweep is the one it
+    ran with (the first sweep's time.N is BASE's 20; the second's γ_ν is the scene file's), and the
+    merged table draws as any sweep's, a curve per γ_ν against N."""
+    import tomllib
+
+    from orchestrate.plot import read_sweep, series
+
+    sweep(SCENE, {"glue.gammaNu": [0.5]}, tmp_path, BASE, workers=1, progress=False)
+    fewer = {key: value for key, value in BASE.items() if key != "time.N"}
+    sweep(SCENE, {"time.N": [20, 30]}, tmp_path, fewer, workers=1, progress=False)
+    scene_gamma = tomllib.loads(SCENE.read_text())["glue"]["gammaNu"]
+    assert table_of(tmp_path) == (["glue.gammaNu", "time.N"],
+                                  [{"glue.gammaNu": "0.5", "time.N": "20", "status": "completed"},
+                                   {"glue.gammaNu": str(float(scene_gamma)), "time.N": "20", "status": "completed"},
+                                   {"glue.gammaNu": str(float(scene_gamma)), "time.N": "30", "status": "completed"}])
+    curves, ticks, left_out = series(*read_sweep(tmp_path), "time.N", "normV")
+    assert ticks is None and not left_out
+    assert {label: [n for n, _ in points] for label, points in curves.items()} == \
+        {"glue.gammaNu = 0.5": [20.0], f"glue.gammaNu = {float(scene_gamma)}": [20.0, 30.0]}
 
 
 @pytest.fixture(scope="module")

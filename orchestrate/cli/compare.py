@@ -5,6 +5,7 @@ from pathlib import Path
 
 from orchestrate.cli.options import add_force_argument
 from orchestrate.compare import FILES, NAME, compare, write
+from orchestrate.freefem import InputError
 from orchestrate.outputs import refuse_folder
 
 HELP = "differences of two runs in the model's norms, and their histories overlaid"
@@ -19,6 +20,8 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
+    if Path(options.run_a).resolve() == Path(options.run_b).resolve():  # compare() itself takes one: a self-check
+        raise InputError(f"RUN_A and RUN_B are both {options.run_a}: give two runs (a run's distance to itself is 0)")
     out = Path(options.out or f"compare-{Path(options.run_a).resolve().name}-{Path(options.run_b).resolve().name}")
     refuse_folder(out, NAME, options.force)  # before the comparison, which takes a FreeFem++ run
     comparison = compare(options.run_a, options.run_b)

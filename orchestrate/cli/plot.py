@@ -16,9 +16,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--x", metavar="KEY", help="a swept key (default: the first swept key; the other swept keys give "
                                                    "one curve per combination), or a column of history.csv (default for a "
                                                    "run folder, or for a --y that is no sweep figure: t)")
-    parser.add_argument("--log", choices=("none", "x", "y", "xy"), default="none", help="which axes are logarithmic")
+    parser.add_argument("--log", choices=("none", "x", "y", "xy"), default="none",
+                        help="which axes are logarithmic (refused for an axis with a value <= 0, or of words)")
     parser.add_argument("--out", help="the image file, .png, .pdf or .svg (default: a sweep's <SOURCE>/<FIGURE>-vs-<KEY>.png, "
-                                      "beside a run folder <SOURCE>-<FIGURE>-vs-<KEY>.png); "
+                                      "beside a run folder <SOURCE>-<FIGURE>-vs-<KEY>.png; its folder is made if new); "
                                       "an existing one is replaced only with --force")
     add_force_argument(parser, NAME, single_file=True)
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from orchestrate.freefem import REPO
-from orchestrate.outputs import refuse_file, write_text
 from orchestrate import formats, parameters
+from orchestrate.outputs import claim_file, write_text
 from orchestrate.reference import MARK, PAGE, page
 
 NAME, HELP = ("reference", "write docs/scene-format.md, the scene format's reference, from the schema, and the files "
@@ -27,7 +27,7 @@ def command(options) -> int:
     target = Path(options.out)
     pages = {target: page(), **({**parameters.generated(), **formats.generated()} if target.resolve() == PAGE else {})}
     for target in pages:
-        refuse_file(target, options.force, MARK)
+        claim_file(target, options.force, MARK)
     for target, text in pages.items():
         write_text(target, text)
         print(f"wrote {target}")

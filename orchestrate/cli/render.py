@@ -5,9 +5,11 @@ import math
 from pathlib import Path
 
 from orchestrate.cli.options import add_force_argument
+from orchestrate.freefem import InputError
 from orchestrate.outputs import claim_folder, refuse_folder
 from orchestrate.render import FIELDS, IMAGES, render_all
 from orchestrate.results import load_result
+from orchestrate.schema import shown
 
 NAME, HELP = "render", "images of a run folder"
 
@@ -50,7 +52,10 @@ def field_list(text: str) -> tuple[str, ...]:
     names = tuple(name.strip() for name in text.split(","))
     unknown = [name for name in names if name not in FIELDS]
     if unknown or not names:
-        raise argparse.ArgumentTypeError(f"no field {', '.join(unknown)} (fields: {', '.join(FIELDS)})")
+        raise argparse.ArgumentTypeError(f"no field {shown(', '.join(unknown), False) or repr('')} (fields: "
+                                         f"{', '.join(FIELDS)})")
+    if len(set(names)) < len(names):
+        raise argparse.ArgumentTypeError(f"'{text}' names a field twice: each is one panel")
     return names
 
 
@@ -74,8 +79,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("folder", help="a run folder (with history.csv and .vtu files)")
     parser.add_argument("--out", help="a new folder for the images (default: the run folder)")
     add_force_argument(parser, NAME)
-    parser.add_argument("--time", type=float, metavar="T", help="the output time of fields.* (default: the last; the nearest "
-                                                  "written is used)")
+    parser.add_argument("--time", type=float, metavar="T",
+                        help="the output time of fields.* and contact_line.* (default: the last): one the run wrote, "
+                             "within 1e-9·T; another is refused, naming the nearest")
     parser.add_argument("--fields", type=field_list, default=("vonMises", "zeta"), metavar="F1,F2",
                         help=f"the fields of fields.*, comma-separated (default vonMises,zeta; of {', '.join(FIELDS)})")
     parser.add_argument("--magnification", type=float, metavar="M",
@@ -97,9 +103,10 @@ def command(options) -> int:
     import matplotlib
 
     if options.cmap and options.cmap not in matplotlib.colormaps:
-        raise RuntimeError(f"--cmap {options.cmap}: not a matplotlib colormap (for example viridis, magma, cividis)")
+        raise InputError(f"--cmap {shown(options.cmap, False)}: not a matplotlib colormap (for example viridis, magma, "
+                         "cividis)")
     if options.magnification is not None and not (math.isfinite(options.magnification) and options.magnification >= 0):
-        raise RuntimeError(f"--magnification {options.magnification}: give a number >= 0")
+        raise InputError(f"--magnification {options.magnification}: give a finite number >= 0 (0: undeformed)")
     ranges, given = "shared", {}
     for choice in options.ranges or []:
         if isinstance(choice, dict):
@@ -107,16 +114,12 @@ def command(options) -> int:
         else:
             ranges = choice
     if given and ranges == "per-body":
-        raise RuntimeError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
+        raise InputError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
     if options.out:
         refuse_folder(Path(options.out), NAME, options.force)  # before the run folder is read
     result = load_result(options.folder)
     if options.time is not None:
-        written = [t for t, _ in result.outputs]
-        nearest = min(written, key=lambda t: abs(t - options.time)) if written else None
-        if nearest is not None and nearest != options.time:
-            print(f"--time {options.time:g}: drawing t = {nearest:g}, the nearest output time (written: "
-                  f"{', '.join(f'{t:g}' for t in written)})")
+        result.output_at(options.time, option="--time")  # refused before an image is drawn
     folder = Path(options.folder)
     if options.out:
         folder = claim_folder(Path(options.out), NAME, [f"{name}.{options.image_format}" for name in IMAGES],

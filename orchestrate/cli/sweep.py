@@ -5,7 +5,7 @@ from pathlib import Path
 
 from orchestrate.arguments import parse_assignments
 from orchestrate.cli.options import add_trust_geo, positive
-from orchestrate.sweep import MAX_UNASKED, grid_of, sweep
+from orchestrate.sweep import MAX_UNASKED, grid_of, read_table, sweep
 
 NAME, HELP = "sweep", "run the cartesian product of overrides on dask.distributed"
 
@@ -26,7 +26,9 @@ def add_arguments(parser) -> None:
                              "in both is refused)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override for every run (keys as for --grid)")
-    parser.add_argument("--out", default="results/sweep", help="sweep folder (default results/sweep)")
+    parser.add_argument("--out", default="results/sweep",
+                        help="sweep folder (default results/sweep); a sweep into the folder of an earlier one adds its "
+                             "rows to that one's sweep.csv")
     parser.add_argument("--workers", type=positive, default=2, help="LocalCluster workers (default 2)")
     parser.add_argument("--scheduler", help="address of an existing dask scheduler, e.g. tcp://host:8786")
     parser.add_argument("--yes", action="store_true",
@@ -52,5 +54,7 @@ def command(options) -> int:
     for row in rows:
         figure = f"normV(T) = {row['normV']:.6g}" if row.get("normV") is not None else row.get("error", "")
         print(f"{row['folder']:<{width}}  {row['status']:<18}  {figure}")
-    print(f"table: {Path(options.out) / 'sweep.csv'}")
+    table = Path(options.out) / "sweep.csv"
+    earlier = len(read_table(table)[1]) - len(rows)
+    print(f"table: {table}" + (f" (with the {earlier} rows of earlier sweeps into {options.out})" if earlier else ""))
     return 0 if all(row["status"] in ("completed", "skipped (complete)") for row in rows) else 1
