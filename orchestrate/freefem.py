@@ -40,13 +40,15 @@ EXIT_MEANING = {
     3: "bad input",
     4: "a solver loop did not converge",
     5: "a broken invariant (NaN, bounds, gap)",
-    6: "a file could not be written",
+    6: "FreeFEM's internal check failed (an operation on arrays or matrices of mismatched sizes)",
     8: "FreeFEM run-time error",
+    74: "a file could not be written",
 }
 # The exit code of a file that could not be written or read (a full disk, a file-size limit, a
 # read-only or missing folder, no permission): the driver's (edp/lib/facts.idp, failWrite) and
-# every command's (orchestrate/cli).
-FILE_PROBLEM = 6
+# every command's (orchestrate/cli); sysexits.h's EX_IOERR, which FreeFEM's own codes (1, 2, 6, 8)
+# and the driver's (3, 4, 5) leave free.
+FILE_PROBLEM = 74
 
 # What to do about an OSError, by its errno.
 FILE_ADVICE = {
@@ -232,7 +234,7 @@ def run_logged(script: Path | str, args, log: Path, cwd: Path, defines: dict[str
     (after what it holds, with `append`); meanwhile(), when given, is called once it started.
     An exception here (KeyboardInterrupt included) ends its process group. The signals Python
     ignores (SIGXFSZ, SIGPIPE) stay ignored in the child: past a file-size limit the driver's write
-    then fails, which it checks, and it stops naming the file (exit 6) instead of dying unexplained."""
+    then fails, which it checks, and it stops naming the file (exit 74) instead of dying unexplained."""
     with open(log, "a" if append else "w") as sink:
         process = subprocess.Popen(dying_with_parent(freefem_command(script, args, defines)), cwd=cwd,
                                    env=freefem_env(), text=True, stdout=sink, stderr=subprocess.STDOUT,

@@ -8,7 +8,9 @@ people (`generated` gives the three texts; tests/test_parameters.py keeps the fi
 """
 from __future__ import annotations
 
+import ast
 import math
+import operator
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +23,7 @@ TABLE_IDP = REPO / "edp" / "lib" / "parameterTable.idp"
 SCHEMES_IDP = REPO / "edp" / "lib" / "schemes.idp"
 REFERENCE = REPO / "docs" / "parameters.md"
 BODIES = (1, 2)
+BODY_SUFFIXES = tuple(str(body) for body in BODIES)  # a body parameter's driver names: E1, E2
 # Each scheme's entries as FreeFEM variables (schemes.idp) and their type there.
 SCHEME_KEYS = {"order": "int", "viscousWeight": "real", "elasticImplicit": "bool", "levels": "int",
                "rateWeights": "real[int]", "extrapolation": "real[int]", "elasticBound": "real",
@@ -29,15 +32,20 @@ SCHEME_KEYS = {"order": "int", "viscousWeight": "real", "elasticImplicit": "bool
 
 @dataclass(frozen=True)
 class Parameter:
-    """One row of the table. A body parameter stands for name1 and name2."""
+    """One row of the table. A body parameter stands for name1 and name2. Its limits are numbers
+    (gt, ge, lt, le; None: no bound; le = inf: infinity itself allowed), or its choices."""
     name: str
     scope: str  # "run" or "body"
-    type: str  # real, int, flag, choice, text, labels
+    type: str  # real, int, flag, choice, subset (a comma-separated subset of the choices), text, labels
     default: str
-    range: str
     unit: str
     scene: str  # dotted key below a scene (body: below bodyN), or "-"
     meaning: str
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    choices: tuple[str, ...] = ()
 
     def value(self, text: str | None = None):
         """The table's default (or `text`) as the Python value a scene holds."""
@@ -50,40 +58,114 @@ class Parameter:
             return text == "1"
         if self.type == "labels":
             return [int(label) for label in text.split(",")]
+        if self.type == "subset":
+            return [] if text == "none" else text.split(",")
         return text
 
     @property
-    def choices(self) -> tuple[str, ...]:
-        return tuple(word.strip() for word in self.range.split(",")) if self.type == "choice" else ()
+    def bounds(self) -> dict[str, float]:
+        """The finite limits (gt, ge, lt, le)."""
+        return {key: getattr(self, key) for key in ("gt", "ge", "lt", "le")
+                if getattr(self, key) is not None and math.isfinite(getattr(self, key))}
 
     @property
-    def bounds(self) -> dict[str, float]:
-        """The limits (gt, ge, lt, le) of an interval range; none for an infinite bound."""
-        if self.type not in ("real", "int", "labels") or self.range == "-":
-            return {}
-        low, high = (part.strip() for part in self.range[1:-1].split(","))
-        limits = {}
-        if low != "-inf":
-            limits["ge" if self.range[0] == "[" else "gt"] = self._number(low)
-        if high != "inf":
-            limits["le" if self.range[-1] == "]" else "lt"] = self._number(high)
-        return limits
+    def closed_at_infinity(self) -> bool:
+        """A real that takes infinity itself (le = inf): the text "inf" in a scene and on the command line."""
+        return self.le == math.inf
 
-    def _number(self, text: str) -> float:
-        return float(text) if self.type == "real" else int(text)
+    @property
+    def range(self) -> str:
+        """The limits as people read them: "(0, inf)", "[1, 4096]", the choices, or "-"."""
+        if self.choices:
+            return ", ".join(self.choices)
+        if self.type not in ("real", "int", "labels"):
+            return "-"
+        low = self.ge if self.ge is not None else self.gt
+        high = self.le if self.le is not None else self.lt
+        return (f"{'[' if self.ge is not None else '('}{number_text(low, '-inf')}, "
+                f"{number_text(high, 'inf')}{']' if self.le is not None else ')'}")
 
     def driver_names(self) -> list[str]:
         return [f"{self.name}{i}" for i in BODIES] if self.scope == "body" else [self.name]
 
 
-def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict]]:
-    """The parameters by name and the schemes by name; the scheme parameter's choices are the
-    schemes, and each scheme has every coefficient."""
+# --- rules between parameters ----------------------------------------------------------------------
+# A rule's `holds` is a condition in a small language, Python's syntax and FreeFEM's meaning:
+# parameters by name, numbers, text in double quotes, + - * /, comparisons, and, or, not. The
+# driver checks it as generated code (parameterTable.idp, checkRules), a scene's validation
+# evaluates it here: one text, both sides.
+RULE_OPERATORS = {ast.Add: ("+", operator.add), ast.Sub: ("-", operator.sub), ast.Mult: ("*", operator.mul),
+                  ast.Div: ("/", operator.truediv), ast.Lt: ("<", operator.lt), ast.LtE: ("<=", operator.le),
+                  ast.Gt: (">", operator.gt), ast.GtE: (">=", operator.ge), ast.Eq: ("==", operator.eq),
+                  ast.NotEq: ("!=", operator.ne), ast.USub: ("-", operator.neg), ast.Not: ("!", operator.not_),
+                  ast.And: ("&&", all), ast.Or: ("||", any)}
+
+
+def rule_tree(text: str) -> ast.expr:
+    tree = ast.parse(text, mode="eval").body
+    for node in ast.walk(tree):
+        allowed = (ast.BoolOp, ast.BinOp, ast.UnaryOp, ast.Compare, ast.Name, ast.Constant, ast.Load,
+                   *RULE_OPERATORS)
+        if not isinstance(node, allowed) or isinstance(node, ast.Constant) and not isinstance(node.value, (int, float, str)):
+            raise ValueError(f"{SOURCE}: rule {text!r}: {type(node).__name__} is not in the rules' language")
+        if isinstance(node, ast.Compare) and len(node.ops) != 1:
+            raise ValueError(f"{SOURCE}: rule {text!r}: one comparison at a time (FreeFEM chains none)")
+    return tree
+
+
+def rule_names(text: str) -> list[str]:
+    return [node.id for node in ast.walk(rule_tree(text)) if isinstance(node, ast.Name)]
+
+
+def rule_holds(text: str, values: dict) -> bool:
+    """A rule's condition on `values` (the driver's names)."""
+    def value(node):
+        if isinstance(node, ast.Constant):
+            return node.value
+        if isinstance(node, ast.Name):
+            return values[node.id]
+        if isinstance(node, ast.BoolOp):
+            return RULE_OPERATORS[type(node.op)][1](value(operand) for operand in node.values)
+        if isinstance(node, ast.UnaryOp):
+            return RULE_OPERATORS[type(node.op)][1](value(node.operand))
+        if isinstance(node, ast.BinOp):
+            return RULE_OPERATORS[type(node.op)][1](value(node.left), value(node.right))
+        return RULE_OPERATORS[type(node.ops[0])][1](value(node.left), value(node.comparators[0]))
+    return bool(value(rule_tree(text)))
+
+
+def rule_code(text: str, suffix: str = "") -> str:
+    """A rule's condition as FreeFEM code, each parameter's name followed by `suffix` (a body's 1 or 2)."""
+    def code(node) -> str:
+        if isinstance(node, ast.Constant):
+            return freefem_text(node.value) if isinstance(node.value, str) else repr(node.value)
+        if isinstance(node, ast.Name):
+            return node.id + suffix
+        if isinstance(node, ast.BoolOp):
+            return "(" + f" {RULE_OPERATORS[type(node.op)][0]} ".join(code(operand) for operand in node.values) + ")"
+        if isinstance(node, ast.UnaryOp):
+            return f"({RULE_OPERATORS[type(node.op)][0]}{code(node.operand)})"
+        if isinstance(node, ast.BinOp):
+            return f"({code(node.left)} {RULE_OPERATORS[type(node.op)][0]} {code(node.right)})"
+        return f"({code(node.left)} {RULE_OPERATORS[type(node.ops[0])][0]} {code(node.comparators[0])})"
+    return code(rule_tree(text))
+
+
+def number_text(value: float | None, infinite: str) -> str:
+    """A limit as the table's readers write it: 0, 0.5, 10000000, inf."""
+    if value is None or math.isinf(value):
+        return infinite if value is None or value > 0 else "-inf"
+    return str(int(value)) if value == int(value) and abs(value) < 1e15 else repr(float(value))
+
+
+def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict], list[dict], dict]:
+    """The parameters by name, the schemes by name, the rules between parameters and the measured
+    constants; the scheme parameter's choices are the schemes, and each scheme has every coefficient."""
     data = tomllib.loads(path.read_text())
-    rows = {row["name"]: Parameter(**row) for row in data["parameter"]}
+    rows = {row["name"]: Parameter(**{**row, "choices": tuple(row.get("choices", ()))}) for row in data["parameter"]}
     schemes = data["scheme"]
     if rows["scheme"].choices != tuple(schemes):
-        raise ValueError(f"{path}: the scheme parameter's range {rows['scheme'].range!r} is not the schemes {list(schemes)}")
+        raise ValueError(f"{path}: the scheme parameter's choices {rows['scheme'].range!r} are not the schemes {list(schemes)}")
     for name, scheme in schemes.items():
         if set(scheme) != {*SCHEME_KEYS, "meaning"}:
             raise ValueError(f"{path}: scheme {name} has {sorted(scheme)}, not {sorted({*SCHEME_KEYS, 'meaning'})}")
@@ -94,7 +176,12 @@ def load(path: Path = SOURCE) -> tuple[dict[str, Parameter], dict[str, dict]]:
         if scheme["levels"] == 2 and not scheme["adhesionImplicit"]:  # the libraries' explicit adhesion is one-level
             raise ValueError(f"{path}: scheme {name} has two levels and adhesionImplicit = false: only a one-level scheme"
                              " takes the glue and the bonding explicitly")
-    return rows, schemes
+    for rule in data["rule"]:
+        unknown = set(rule_names(rule["holds"])) - set(rows)
+        if unknown or rule["names"] not in rows or rule["scope"] not in ("run", "body"):
+            raise ValueError(f"{path}: rule {rule['holds']!r} names {sorted(unknown) or rule['names']}, not parameters of "
+                             "the table, or its scope is not run or body")
+    return rows, schemes, data["rule"], data["measured"]
 
 
 def finite(value) -> bool:
@@ -113,7 +200,8 @@ SCHEME_CHECKS = {
 }
 
 
-PARAMETERS, SCHEMES = load()
+PARAMETERS, SCHEMES, RULES, MEASURED = load()
+BYTES_PER_NODE = MEASURED["bytesPerNode"]  # FreeFem++'s peak memory per mesh node (parameters.toml, [measured])
 ORDER = {name: scheme["order"] for name, scheme in SCHEMES.items()}  # each scheme's order in k
 
 
@@ -156,6 +244,18 @@ def unbounded_field(name: str) -> Key:
         return float(value)
 
     return Key(Custom(validate, 'number or one of "inf"'), parameter.value(), described(parameter), parameter.range)
+
+
+def scene_key(name: str, suffix: str = "") -> str:
+    """The scene key of a parameter of the table (a body's, for the body `suffix` names: 1 or 2)."""
+    parameter = PARAMETERS[name]
+    return f"body{suffix}.{parameter.scene}" if parameter.scope == "body" else parameter.scene
+
+
+def driver_name_keys() -> dict[str, str]:
+    """Each driver name of a parameter that has a scene key (E1, T, ...), to its scene key."""
+    return {name: scene_key(parameter.name, name[len(parameter.name):]) for parameter in PARAMETERS.values()
+            if parameter.scene != "-" for name in parameter.driver_names()}
 
 
 def scene_value(data: dict, dotted: str):
@@ -217,18 +317,45 @@ def freefem_number(value) -> str:
     return repr(value) if isinstance(value, int) else repr(float(value))
 
 
+def freefem_limit(value: float | None, infinite: float) -> str:
+    """A limit as a FreeFEM expression: a number, or ±inf (1e308*10) for none."""
+    value = infinite if value is None else value
+    return ("-" if value < 0 else "") + "1e308*10" if math.isinf(value) else repr(value)
+
+
+def table_row(p: Parameter) -> str:
+    low = p.ge if p.ge is not None else p.gt
+    high = p.le if p.le is not None else p.lt
+    words = " " + " ".join(p.choices) + " " if p.choices else ""
+    return ("addTableRow(" + ", ".join(freefem_text(getattr(p, key)) for key in ("scope", "name", "type", "default"))
+            + f", {freefem_text(p.range)}, {freefem_text(p.unit)}, {freefem_limit(low, -math.inf)}, {int(p.ge is not None)}, "
+              f"{freefem_limit(high, math.inf)}, {int(p.le is not None)}, {freefem_text(words)});")
+
+
+def rule_check(rule: dict, suffix: str = "") -> str:
+    return (f'requireRule({freefem_text(rule["names"] + suffix)}, {rule_code(rule["holds"], suffix)}, '
+            f'{freefem_text(rule["says"])});')
+
+
 def table_idp() -> str:
-    rows = "\n".join("addTableRow(" + ", ".join(freefem_text(getattr(p, key)) for key in
-                                                ("scope", "name", "type", "default", "range", "unit")) + ");"
-                     for p in PARAMETERS.values())
+    rows = "\n".join(table_row(p) for p in PARAMETERS.values())
+    rules = "\n".join(rule_check(rule, suffix) for rule in RULES
+                      for suffix in (BODY_SUFFIXES if rule["scope"] == "body" else ("",)))
     return f"""// {GENERATED}
-// Every parameter's row (scope, name, type, default, range, unit) for params.idp; what each means is
-// in docs/parameters.md, never here, so rewording it changes no solver digest.
+// Every parameter's row for params.idp: scope, name, type, default, its range as people read it and
+// unit (for messages and -help), its limits as numbers (the lower one and whether it is closed, the
+// upper one and whether it is closed; 1e308*10 is infinity) and its choices; and the rules between
+// parameters, checked once every parameter is read. What each means is in docs/parameters.md, never
+// here, so rewording it changes no solver digest.
 IFMACRO(!parameterTableIdp)
 macro parameterTableIdp 1 //
 macro parameterRows
 {rows}
 //
+macro checkRules
+{rules}
+//
+real bytesPerNode = {freefem_number(BYTES_PER_NODE)};  // FreeFem++'s peak memory per mesh node, measured
 ENDIFMACRO
 """
 
@@ -277,6 +404,8 @@ def reference_md() -> str:
         [p.name, p.scope, p.type, p.default, p.range, p.unit, p.scene, p.meaning] for p in PARAMETERS.values()]
     table = "\n".join("| " + " | ".join(markdown_cell(cell) for cell in row) + " |" for row in rows)
     schemes = "\n".join(f"- `{name}`: {scheme['meaning']} (order {scheme['order']})" for name, scheme in SCHEMES.items())
+    rules = "\n".join(f"- `{rule['holds']}`{' (each body)' if rule['scope'] == 'body' else ''}: {rule['says']}"
+                      for rule in RULES)
     return f"""# Parameters of the driver
 
 <!-- {GENERATED} -->
@@ -289,14 +418,21 @@ A *body* parameter exists once per body: `E` is the flags `-E1` and `-E2` and th
 `eta` η, `mu` μ, `nu` ν. The defaults are the paper's scene.
 
 Types: *real*, *int*, *flag* (0 or 1; a boolean in scenes), *choice* (one of the words in the range
-column), *text*, *labels* (boundary labels, comma-separated on the command line like `1,5`, a number
-or a list in scenes; each in the range, each once). Ranges are intervals, `(` and `)` open, `[` and
-`]` closed; `inf` means no bound. Units are SI (lengths in m, times in s, forces per unit thickness
-in N/m); any consistent set works. A scene key `-` means the parameter is the driver's only.
-Constraints between parameters are checked in `edp/lib/parameters.idp`: 2μ + η > 0 per body;
-`outTimes` and `outFields` have their own syntax.
+column), *subset* (some of those words: comma-separated on the command line, `none` for none; a list
+in scenes), *text*, *labels* (boundary labels, comma-separated on the command line like `1,5`, a
+number or a list in scenes; each in the range, each once). Ranges are intervals, `(` and `)` open,
+`[` and `]` closed; `inf` means no bound (`inf]`: infinity itself allowed, written `inf`). Units are
+SI (lengths in m, times in s, forces per unit thickness in N/m); any consistent set works. A scene
+key `-` means the parameter is the driver's only. `outTimes` has its own syntax.
 
 {table}
+
+## Rules between parameters
+
+Checked by the driver and by a scene's validation, both from this one table (a body rule for each
+body):
+
+{rules}
 
 ## Time schemes
 

@@ -30,6 +30,7 @@ import importlib
 import json
 import os
 import platform
+import re
 import shutil
 import signal
 import threading
@@ -40,11 +41,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from orchestrate import mesh as meshing
-from orchestrate.freefem import (MAIN, REPO, FileProblem, InputError, SolverError, file_problem, freefem_binary,
-                                 require_plain_path, run_logged)
+from orchestrate.freefem import (FILE_PROBLEM, MAIN, REPO, FileProblem, InputError, SolverError, file_problem,
+                                 freefem_binary, require_plain_path, run_logged)
 from orchestrate.identity import solver_identity
 from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, is_run_entry, write_manifest
 from orchestrate.outputs import drawn_image
+from orchestrate.parameters import driver_name_keys
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.scene import RESULT_FREE, Scene, SceneError, to_freefem_scene
 from orchestrate.steps import StepsError, choose_steps
@@ -375,7 +377,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
             (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
             raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
         except (SolverError, meshing.MeshError, InputError, TooLarge, IncompleteRun) as error:
-            if restart and not (isinstance(error, SolverError) and error.returncode in STEP_FAILURES):
+            if restart and not (isinstance(error, SolverError) and error.returncode not in KEPT_FAILURES):
                 keep_interrupted(partial, str(error))  # it did not continue: the interrupted run is as it was
                 raise RunError(f"{partial} could not be continued from its checkpoint at step {checkpoint_step(partial)}: "
                                f"{error}. Its files stay there: --resume again once that is mended, --force to start "
@@ -393,9 +395,10 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     return Result(out)  # built and checked above (build, write_manifest): not read a second time
 
 
-# The driver's exit codes of a step that failed (docs/usage.md, "Exit codes"): a resumed run that
-# stops so has continued, and is a failed run; any other failure leaves the interrupted run as it was.
-STEP_FAILURES = (4, 5)
+# The driver's exit codes after which a resumed run is still the interrupted one (docs/usage.md,
+# "Exit codes"): its input or checkpoint refused (3), a file it could not write (74: after space is
+# freed, --resume continues it). Any other code stopped a step it took: it is a failed run.
+KEPT_FAILURES = (3, FILE_PROBLEM)
 
 
 def keep_interrupted(partial: Path, reason: str) -> None:
@@ -464,10 +467,10 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
               trust_geo: bool = False) -> list[meshing.MeshInfo]:
     """Both bodies meshed at once (each in a gmsh process of its own, under its limits: the first
     to fail stops the other), copied into the run folder as body1.msh and body2.msh after their
-    labels and size are checked against the scene."""
+    labelled curves are checked. The labels the scene names and whether the run fits this
+    machine's memory are the driver's to check (edp/lib/meshes.idp, contact.idp)."""
     bar.phase("meshing")
     bodies = (scene.body1, scene.body2)
-    free = meshing.memory_available()
     pool = ThreadPoolExecutor(2)
     try:
         futures = [pool.submit(meshing.body_mesh, b.mesh.source(), b.mesh.numbers(), b.mesh.refine, mesh_cache,
@@ -482,23 +485,11 @@ def meshes_of(scene: Scene, folder: Path, mesh_cache: Path | None, bar: RunProgr
     finally:
         pool.shutdown(wait=True)
     infos = []
-    for index, (body, path) in enumerate(zip(bodies, paths), 1):
+    for index, path in enumerate(paths, 1):
         info = meshing.read_msh(path)  # read whole when body_mesh took it: not parsed again
-        require_labels(body, index, info)
-        require_boundary_curves(body, index, info)
+        require_boundary_curves(index, info)
         meshing.hand_over(path, info, folder / f"body{index}.msh")
         infos.append(info)
-    constraints = sum(infos[0].segments.get(label, 0) for label in scene.body1.mesh.contactLabel) + 1
-    pdas = scene.solver.contactSolver == "pdas"
-    budget = scene.solver.contactColumnsMB * 2 ** 20 if pdas and not scene.solver.factored else 0
-    block = scene.solver.columnBlock
-    need = meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, budget, block)
-    if free and need > free:
-        kept = need > meshing.estimated_memory(infos[0].nodes + infos[1].nodes, constraints, 0, block)
-        raise TooLarge(f"this run needs about {need / 2**30:.1f} GiB ({infos[0].nodes + infos[1].nodes:,} nodes, "
-                          f"{constraints} contact nodes{', the columns of K⁻¹Cᵀ kept by the active-set solver' if kept else ''}) "
-                          f"and {free / 2**30:.1f} GiB are free: lower mesh.n or mesh.refine"
-                          + (", or solver.contactColumnsMB below their size" if kept else ""))
     return infos
 
 
@@ -507,56 +498,24 @@ DRIVER_ADVICE = {"-allowUnstable 1": "--allow-unstable (or solver.allowUnstable 
 
 
 def python_spelling(message: str) -> str:
-    """A driver message with the flags it suggests in the spelling of `orchestrate run`."""
+    """A driver message with the flags it suggests in the spelling of `orchestrate run`, and the
+    parameters it names ("parameter T = -1") by their scene keys (the rules the driver alone checks,
+    the output times' among them, are said in the scene's terms)."""
     for flag, spelling in DRIVER_ADVICE.items():
         message = message.replace(flag, spelling)
-    return message
+    keys = driver_name_keys()
+    return re.sub(r"\bparameter ([A-Za-z][A-Za-z0-9]*)\b", lambda found: keys.get(found[1], found[0]), message)
 
 
-def require_labels(body, index: int, info: meshing.MeshInfo) -> None:
-    """Every label the scene names must be a boundary label of the body's mesh: a condition on a
-    missing label acts on nothing and the run would silently be another problem."""
-    contact = body.mesh.contactLabel
-    named = [(f"body{index}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}", label) for label in contact]
-    named += [(f"body{index}.boundary.{j}.label = {condition.label}", condition.label)
-              for j, condition in enumerate(body.boundary)]
-    for key, label in named:
-        if label not in info.segments:
-            raise SceneError(f"{key}: body {index}'s mesh has no boundary label {label} "
-                             f"(its labels: {', '.join(map(str, sorted(info.segments)))})")
-
-
-def require_boundary_curves(body, index: int, info: meshing.MeshInfo) -> None:
-    """A labelled curve must bound the body's triangles (a vertex in none has no equation: FreeFEM
-    meets a singular matrix), and the contact boundary must be one connected curve (the mortar
-    side of body 1 a segment, body 2's a curve facing it); each is refused naming the field."""
+def require_boundary_curves(index: int, info: meshing.MeshInfo) -> None:
+    """A labelled curve must bound the body's triangles: a vertex in none has no equation, and
+    FreeFEM meets a singular matrix without saying where (the labels a scene names and the shape
+    of Γ_C are the driver's to check: edp/lib/meshes.idp, mortar.idp)."""
     if info.stray:
         label, (x, y) = min(info.stray.items())
         raise SceneError(f"body{index}.mesh.geo: label {label} of body {index}'s mesh is on a curve that bounds none "
                          f"of its triangles (at ({x:.6g}, {y:.6g})): a Physical Curve must be part of the boundary of "
                          "the meshed surface, else FreeFEM gets vertices it cannot solve for")
-    contact = body.mesh.contactLabel
-    pieces = curve_pieces([segment for label in contact for segment in info.curves.get(label, [])])
-    if len(pieces) > 1:
-        where = " and ".join(f"({x:.6g}, {y:.6g})" for x, y in pieces[:2])
-        raise SceneError(f"body{index}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}: Γ_C is "
-                         f"{len(pieces)} separate curves in body {index}'s mesh (through {where}): it must be one "
-                         "connected curve (body 1's a straight segment, body 2's a curve facing it); give the pieces "
-                         "labels of their own and name one, or those that meet end to end")
-
-
-def curve_pieces(segments: list) -> list[tuple[float, float]]:
-    """A point of each connected piece of a set of segments (((x1, y1), (x2, y2)) each)."""
-    parent: dict[tuple, tuple] = {}
-
-    def root(point: tuple) -> tuple:
-        while parent.setdefault(point, point) != point:
-            point = parent[point]
-        return point
-
-    for first, second in segments:
-        parent[root(tuple(first))] = root(tuple(second))
-    return sorted({root(point) for point in list(parent)})
 
 
 def resolve_steps(scene: Scene, folder: Path, mesh_cache: Path | None, restart: bool,

@@ -23,9 +23,11 @@ from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
 from orchestrate.mesh import TIME_LIMIT, geo_constants
-from orchestrate.parameters import PARAMETERS, driver_values, field, unbounded_field
-from orchestrate.schema import (PATH_MAX, Boolean, Check, Choice, Custom, Integer, Key, ListOf, MapOf, Number, Optional,
-                                Table, TableOf, Tagged, Text, Then, TupleOf, ValidationError, after, problem, shown)
+from orchestrate.parameters import (BODY_SUFFIXES, PARAMETERS, RULES, driver_values, field, rule_holds, rule_names,
+                                    scene_key, unbounded_field)
+from orchestrate.schema import (PATH_MAX, Boolean, Check, Choice, Custom, Integer, Invalid, Key, ListOf, MapOf, Number,
+                                Optional, Table, TableOf, Tagged, Text, Then, TupleOf, ValidationError, after, problem,
+                                shown)
 
 
 class SceneError(InputError):
@@ -225,11 +227,6 @@ class Material(Table):
     eta = field("eta")
     kappa = field("kappa")
 
-    @after
-    def viscosity_definite(self):
-        if 2 * self.mu + self.eta <= 0:
-            raise ValueError(f"mu = {self.mu} with eta = {self.eta}: A needs 2 mu + eta > 0")
-
 
 class BodyDamage(Table):
     """φ = λ_D (1 − ζ)/ζ − ½ λ_u R(ε·ε) + λ_w, and the initial damage ζ0."""
@@ -367,18 +364,6 @@ class Solver(Table):
     allowUnstable = field("allowUnstable")
     divergenceFactor = field("divergenceFactor")
 
-    @property
-    def factored(self) -> bool:
-        """Whether the driver condenses the contact problem on CHOLMOD's factor (as contact.idp
-        decides it: run.json condensation)."""
-        return self.condensation == "factor" or (self.condensation == "auto" and self.linearSolver == "CHOLMOD")
-
-    @after
-    def factor_needs_cholmod(self):
-        if self.condensation == "factor" and self.linearSolver != "CHOLMOD":
-            raise ValueError(f"condensation = factor splits CHOLMOD's solves: it needs linearSolver = CHOLMOD "
-                             f"(linearSolver = {self.linearSolver} here; give condensation = columns)")
-
 
 UNIT_NAME = re.compile(r"[A-Za-zµ]{1,8}")  # a unit's name as the images print it: letters only (no TeX)
 
@@ -431,7 +416,7 @@ class Output(Table):
     "state" (the unknowns, for error norms between runs)."""
     times = Key(Custom(_output_times, 'one of "final", "all", "none" or list of number'),
                 PARAMETERS["outTimes"].default, PARAMETERS["outTimes"].meaning + " [s]")
-    fields = Key(ListOf(Choice("bodies", "stress", "contact", "state")), PARAMETERS["outFields"].default.split(","),
+    fields = Key(ListOf(Choice(*PARAMETERS["outFields"].choices)), PARAMETERS["outFields"].value(),
                  PARAMETERS["outFields"].meaning)
     images = Key(Boolean(), True, "render fields.png, contact_line.png, history.png (and beta_xt.png) after the run")
     units = Key(UnitsCheck(), "SI",
@@ -462,11 +447,17 @@ class Scene(Table):
     output = Key(TableOf(Output), {})
 
     @after
-    def output_times_in_range(self):
-        if isinstance(self.output.times, list):
-            for value in self.output.times:
-                if not 0 < value <= self.time.T:
-                    raise ValueError(f"output.times: {value} is outside (0, T = {self.time.T}]")
+    def rules_hold(self):
+        """The rules between parameters (parameters.toml), as the driver checks them: the first that
+        fails is the problem of the scene key it names."""
+        values = driver_values(self.model_dump(mode="json"))
+        for rule, suffix in ((rule, suffix) for rule in RULES
+                             for suffix in (BODY_SUFFIXES if rule["scope"] == "body" else ("",))):
+            names = {name: values.get(name + suffix) for name in rule_names(rule["holds"])}
+            if None not in names.values() and not rule_holds(rule["holds"], names):
+                key = scene_key(rule["names"], suffix)
+                raise Invalid([{"loc": tuple(key.split(".")), "type": "value_error", "input": values[rule["names"] + suffix],
+                                "msg": f"{shown(values[rule['names'] + suffix])} is not allowed: {rule['says']}"}])
 
     @classmethod
     def load(cls, path: str | Path, overrides: dict | None = None, grid: tuple = ()) -> "Scene":
@@ -759,6 +750,15 @@ def _labels(body: Body) -> str:
     return ", ".join(str(label) for label in dict.fromkeys(condition.label for condition in body.boundary))
 
 
+def _label_keys(body: Body, i: int) -> str:
+    """The driver's check that each label the scene names is in the body's mesh, naming it by its
+    scene key (edp/lib/meshes.idp, sceneLabels): the rule is the driver's, the keys the scene's."""
+    contact = body.mesh.contactLabel
+    named = [(f"body{i}.mesh.contactLabel = {contact[0] if len(contact) == 1 else contact}", label) for label in contact]
+    named += [(f"body{i}.boundary.{j}.label = {condition.label}", condition.label) for j, condition in enumerate(body.boundary)]
+    return " ".join(f'requireLabel(Th{i}, {label}, {i}, "{key}", meshFile{i});' for key, label in named)
+
+
 def to_freefem_scene(scene: Scene) -> str:
     """The generated FreeFEM scene file (data only) for edp/main.edp -DSCENE=scene.idp, run in the
     run folder: the meshes are that folder's body1.msh and body2.msh, so no path is written."""
@@ -782,4 +782,5 @@ def to_freefem_scene(scene: Scene) -> str:
         if loads:
             lines.append(f"macro loads{i}(vx, vy) {loads} //")
         lines.append(f"macro boundaryLabels{i} {_labels(body)} //")
+        lines.append(f"macro sceneLabels{i} {_label_keys(body, i)} //")
     return "\n".join(lines) + "\n"

@@ -151,7 +151,11 @@ def test_a_run_condensed_on_the_factor_is_the_run_with_columns_to_round_off(tmp_
     folders = condensed_runs(tmp_path, scene, overrides)
     facts = {name: json.loads((folder / "run.json").read_text()) for name, folder in folders.items()}
     assert facts["factor"]["condensation"] == "factor" and facts["columns"]["condensation"] == "columns"
-    assert contact_iterations(folders["factor"]) == contact_iterations(folders["columns"])
+    # the same passes of the contact (and implicit glue) loop at every step, up to one: the glue
+    # loop's state tests compare with exactly 0 (issue 48), so round-off can end it a pass apart
+    # (peel, bdf2, step 1: 44 and 43 passes on some machines), to the same state (below)
+    passes = [np.array(contact_iterations(folders[name]), dtype=int) for name in ("factor", "columns")]
+    assert np.abs(passes[0] - passes[1]).max() <= 1 and np.count_nonzero(passes[0] != passes[1]) <= 1
     reference = read_state(sorted(folders["columns"].glob("state_*.txt"))[-1])
     produced = read_state(sorted(folders["factor"].glob("state_*.txt"))[-1])
     for name in STATE_ARRAYS:  # each field against its own largest value
@@ -194,8 +198,6 @@ def test_the_factor_needs_cholmod_and_auto_takes_the_columns_without_it(tmp_path
     done = run_script(MAIN, ["-linearSolver", "UMFPACK", "-N", "20", "-outTimes", "none", "-out", tmp_path / "auto"])
     assert done.returncode == 0, done.error_line
     assert json.loads((tmp_path / "auto" / "run.json").read_text())["condensation"] == "columns"
-    for solver, factored in (("CHOLMOD", True), ("UMFPACK", False)):  # as the runner's memory estimate reads it
-        assert Scene.load(REPO / "scenes" / "paper.toml", {"solver.linearSolver": solver}).solver.factored is factored
 
 
 def test_a_body_matrix_cholmod_finds_not_positive_definite_stops_the_run(tmp_path):

@@ -1,5 +1,5 @@
 """Errors at the edge (issue 47, item 6): a file the driver or a command cannot write is one line
-naming the file and what to do, with its own exit code (6), never a traceback, never the code of
+naming the file and what to do, with its own exit code (74, FILE_PROBLEM), never a traceback, never the code of
 another failure. A file-size limit stands for a full disk (writes fail part-way; FreeFEM's
 streams report nothing), a path through a file for a missing or unwritable folder."""
 import resource
@@ -50,7 +50,7 @@ def test_a_write_that_fails_part_way_stops_the_driver_naming_the_file(tmp_path, 
     assert len(lines) == 1 and "cannot write" in lines[0] and name in lines[0] and "file-size limit" in lines[0]
 
 
-def test_an_output_folder_that_cannot_be_made_is_exit_6_naming_it(tmp_path):
+def test_an_output_folder_that_cannot_be_made_is_a_file_problem_naming_it(tmp_path):
     (tmp_path / "plain").write_text("a file, not a folder")
     done = driver(tmp_path / "plain" / "run")
     assert done.returncode == FILE_PROBLEM and "cannot create the output folder" in error_lines(done.stdout + done.stderr)[0]
@@ -61,10 +61,10 @@ def command(out, overrides: dict) -> list[str]:
 
 
 @pytest.mark.parametrize("overrides, limit, words", [
-    ({**COARSE, "output.times": "all"}, 12_000, ["FreeFem++ exit 6", "cannot write", "file-size limit"]),
+    ({**COARSE, "output.times": "all"}, 12_000, [f"FreeFem++ exit {FILE_PROBLEM}", "cannot write", "file-size limit"]),
     ({**COARSE, "output.images": True}, 60_000, ["file-size limit"]),  # an image past the limit: Python's write
 ])
-def test_orchestrate_says_a_failed_write_in_one_line_with_exit_6(tmp_path, overrides, limit, words):
+def test_orchestrate_says_a_failed_write_in_one_line_with_its_own_exit_code(tmp_path, overrides, limit, words):
     done = subprocess.run(command(tmp_path / "run", overrides), cwd=REPO, capture_output=True, text=True,
                           preexec_fn=limited(limit))
     assert done.returncode == FILE_PROBLEM, done.stderr[-1500:]
@@ -75,7 +75,7 @@ def test_orchestrate_says_a_failed_write_in_one_line_with_exit_6(tmp_path, overr
     assert not (tmp_path / "run").exists()  # nothing cut short is published
 
 
-def test_a_run_into_a_folder_under_a_file_is_one_line_with_exit_6(tmp_path):
+def test_a_run_into_a_folder_under_a_file_is_one_line_with_its_own_exit_code(tmp_path):
     (tmp_path / "plain").write_text("a file, not a folder")
     done = subprocess.run(command(tmp_path / "plain" / "run", COARSE), cwd=REPO, capture_output=True, text=True)
     assert done.returncode == FILE_PROBLEM and "Traceback" not in done.stderr

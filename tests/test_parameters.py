@@ -79,9 +79,9 @@ def test_each_scheme_s_coefficients_are_consistent():
 
 
 def expected(parameter):
-    """The table's default as params_used.json writes it (flags and integers as numbers, labels as
-    the list's text)."""
-    if parameter.type == "labels":
+    """The table's default as params_used.json writes it (flags and integers as numbers, labels and
+    subsets as the list's text)."""
+    if parameter.type in ("labels", "subset"):
         return parameter.default
     value = parameter.value()
     return int(value) if isinstance(value, bool) else value

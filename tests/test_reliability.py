@@ -79,7 +79,9 @@ def test_injection_attempts_are_refused_before_freefem_starts(tmp_path, no_freef
 GENERATED_LINE = re.compile(
     r'// .*|setParam\("[A-Za-z0-9]+", (-?[0-9][0-9.e+-]*|"[A-Za-z0-9_.,+-]*")\);'
     r'|macro (dirichlet|loads)[12]\((ux, uy|vx, vy)\) [A-Za-z0-9_ .,+\-*/^()=<>?:!]* //'
-    r'|macro boundaryLabels[12] [0-9]+(, [0-9]+)* //')
+    r'|macro boundaryLabels[12] [0-9]+(, [0-9]+)* //'
+    r'|macro sceneLabels(?P<b>[12])( requireLabel\(Th(?P=b), [0-9]+, (?P=b), "body(?P=b)\.(mesh\.contactLabel = '
+    r'([0-9]+|\[[0-9]+(, [0-9]+)*\])|boundary\.[0-9]+\.label = [0-9]+)", meshFile(?P=b)\);)+ //')
 
 
 @pytest.mark.unit

@@ -18,10 +18,10 @@ from hypothesis import strategies as st
 
 from conftest import solve
 from orchestrate import Scene, SceneError, load_result, run, sweep
-from orchestrate.freefem import MAIN, REPO, InputError, run_script
+from orchestrate.freefem import MAIN, REPO, InputError, SolverError, run_script
 from orchestrate.manifest import IncompleteRun
-from orchestrate.mesh import CACHE, MeshError, MeshInfo, body_mesh, read_msh
-from orchestrate.runner import SUFFIXES, RunError, TooLarge, require_labels
+from orchestrate.mesh import CACHE, MeshError, body_mesh, read_msh
+from orchestrate.runner import SUFFIXES, RunError, TooLarge
 
 pytestmark = pytest.mark.runs
 
@@ -116,27 +116,13 @@ def test_a_checkout_whose_path_has_hash_semicolon_backslash_quotes_and_spaces_ru
     ("body2.mesh.contactLabel", [3, 9], ["body2.mesh.contactLabel = [3, 9]", "no boundary label 9"]),
 ])
 def test_a_label_not_in_the_mesh_is_refused_naming_the_key_and_the_mesh_labels(tmp_path, key, value, words):
-    with pytest.raises(SceneError) as error:
+    """The driver's rule (edp/lib/meshes.idp), named by the scene's key (scene.idp's sceneLabels)."""
+    with pytest.raises(SolverError) as error:
         run(PAPER, tmp_path / "run", {**COARSE, key: value})
+    assert error.value.returncode == 3
     for word in words:
         assert word in str(error.value)
     assert not (tmp_path / "run").exists() and "no boundary label" in (tmp_path / "run.failed" / "run.log").read_text()
-
-
-@settings(max_examples=200, deadline=None)
-@given(present=st.sets(st.integers(0, 12), min_size=1), named=st.lists(st.integers(0, 12), min_size=1, max_size=5))
-@pytest.mark.unit
-def test_labels_are_refused_exactly_when_one_is_missing(present, named):
-    scene = Scene.load(PAPER)
-    body = scene.body1.model_copy(update={"boundary": [b.model_copy(update={"label": label})
-                                                       for b, label in zip(scene.body1.boundary * 5, named)]})
-    info = MeshInfo(10, 10, {label: 1 for label in present})
-    labels = {*body.mesh.contactLabel, *named[:len(body.boundary)]}
-    if labels <= present:
-        require_labels(body, 1, info)
-    else:
-        with pytest.raises(SceneError, match="no boundary label"):
-            require_labels(body, 1, info)
 
 
 def test_the_driver_checks_a_hand_written_scene_s_labels(tmp_path):
