@@ -78,9 +78,12 @@ class Result:
     def files(self) -> list[str]:
         """The names of the run's files: those its manifest lists (a run of orchestrate), else those
         run.json lists (none without either). A reader takes no other file of the folder."""
-        if self.digests is None:
+        if self.digests is not None:
+            return sorted({*self.digests, FACTS} if (self.folder / FACTS).is_file() else self.digests)
+        try:
+            return sorted(json.loads((self.folder / FACTS).read_bytes())["files"])
+        except (OSError, ValueError, KeyError, TypeError):
             return []
-        return sorted({*self.digests, FACTS} if (self.folder / FACTS).is_file() else self.digests)
 
     @cached_property
     def params(self) -> dict:
@@ -185,12 +188,15 @@ class Result:
 
 def listed_digests(folder: Path) -> dict[str, str] | None:
     """The SHA-256 of each file of a run folder by name: its manifest's (runs of orchestrate), else
-    run.json's fileDigests (a run of the driver by hand), else None."""
+    run.json's fileDigests (a finished run of the driver by hand), else None: a run that stopped
+    (run.json written at its set-up, finished false) has no record, and its files are read as
+    they are (load_result refuses such a folder; a Result of it is for what a failure left)."""
     if (folder / MANIFEST).is_file():
         entries = json.loads((folder / MANIFEST).read_bytes())["files"]
         return {name: entry["sha256"] for name, entry in entries.items()}
     if (folder / FACTS).is_file():
-        return dict(json.loads((folder / FACTS).read_bytes()).get("fileDigests") or {})
+        digests = json.loads((folder / FACTS).read_bytes()).get("fileDigests")
+        return dict(digests) if isinstance(digests, dict) else None
     return None
 
 

@@ -104,7 +104,7 @@ def test_bin_ff_ends_a_failure_with_its_error_line_and_names_a_missing_scene(tmp
     missing = ff("-DSCENE=nowhere.idp")
     assert missing.returncode == 3 and "the -DSCENE file 'nowhere.idp' is not there" in missing.stderr
     shown = ff("-help")
-    assert shown.returncode == 0 and "-outFields (text, default 'bodies,stress,contact,state')" in shown.stdout
+    assert shown.returncode == 0 and "-outFields (subset, default 'bodies,stress,contact,state'" in shown.stdout
     # A signal to bin/ff ends the run (FreeFem++ is bin/ff's own process, not an orphaned child).
     running = subprocess.Popen([str(REPO / "bin" / "ff"), "edp/main.edp", "-N", "100000", "-out", str(tmp_path / "long")],
                                cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -15,7 +15,7 @@ import pytest
 from conftest import SCENES, gmsh_mesh, solve
 from orchestrate import Scene, SceneError, SolverError, load_result, run
 from orchestrate import runner as runner_module
-from orchestrate.freefem import MAIN, REPO, run_script
+from orchestrate.freefem import FILE_PROBLEM, MAIN, REPO, run_script
 from orchestrate.manifest import IncompleteRun
 from orchestrate.scene import to_freefem_scene
 from orchestrate.sweep import folder_name
@@ -262,15 +262,17 @@ def test_a_file_size_limit_stops_the_run_with_a_clear_message_and_keeps_what_was
 
 
 def test_files_cut_short_without_an_error_are_never_taken_as_a_run(tmp_path):
-    # FreeFem++ run by hand with SIGXFSZ ignored: its writes fail silently and it exits 0.
+    # FreeFem++ run by hand with SIGXFSZ ignored: its writes fail without a word from FreeFEM's
+    # streams, so the driver reads each file back and stops naming the one cut short (exit 74);
+    # what it left is never taken as a run.
     out = tmp_path / "hand"
     done = subprocess.run(["bin/ff", str(MAIN), "-out", str(out)], cwd=REPO,
                           capture_output=True, text=True, preexec_fn=limited_file_size(True))
-    assert done.returncode == 0 and (out / "run.json").exists()
-    with pytest.raises(IncompleteRun, match="cut short|cannot be read back"):
+    assert done.returncode == FILE_PROBLEM and "cannot write" in done.stdout + done.stderr and (out / "run.json").exists()
+    with pytest.raises(IncompleteRun, match="cut short|cannot be read back|did not finish"):
         load_result(out)
     rendered = cli("render", out)
-    assert rendered.returncode != 0 and "cut short" in rendered.stderr and not (out / "fields.png").exists()
+    assert rendered.returncode != 0 and "did not finish" in rendered.stderr and not (out / "fields.png").exists()
 
 
 def test_a_run_whose_files_are_cut_short_is_not_published(tmp_path, monkeypatch):

@@ -133,7 +133,7 @@ def test_compare_of_two_levels_gives_the_time_ladders_distances(quick, tmp_path,
     coarse, middle = by_steps[rows[0]["N"]], by_steps[rows[1]["N"]]
     [reference] = (out / "runs" / "time-reference").iterdir()
     to_next, to_reference = compare(coarse, middle), compare(coarse, reference)
-    assert to_next.nested and to_next.reference == "b" and to_next.parameters["N"] == (rows[0]["N"], rows[1]["N"])
+    assert to_next.nested and to_next.reference == "b" and to_next.differences["time.N"] == (rows[0]["N"], rows[1]["N"])
     for quantity, column in (("errorV", "nextV"), ("errorZeta", "nextZeta"), ("errorBeta", "nextBeta")):
         assert to_next.maximum(quantity) == pytest.approx(rows[0][column], rel=1e-12)
         assert to_reference.maximum(quantity) == pytest.approx(rows[0][quantity], rel=1e-12)

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from conftest import solve
 from orchestrate import Scene, SceneError, load_result, run, sweep
-from orchestrate.freefem import MAIN, REPO, InputError, SolverError, run_script
+from orchestrate.freefem import FILE_PROBLEM, MAIN, REPO, InputError, SolverError, run_script
 from orchestrate.manifest import IncompleteRun
 from orchestrate.mesh import CACHE, MeshError, body_mesh, read_msh
 from orchestrate.runner import SUFFIXES, RunError, TooLarge
@@ -544,7 +544,7 @@ def test_a_scene_file_that_cannot_be_read_is_named(tmp_path, make, words):
 def test_an_output_folder_under_a_file_or_too_long_is_refused_with_the_reason(tmp_path):
     (tmp_path / "afile").write_text("")
     done = cli("run", PAPER, "--out", tmp_path / "afile" / "x")
-    assert done.returncode == 1 and "Not a directory" in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode == FILE_PROBLEM and "Not a directory" in done.stderr and "Traceback" not in done.stderr
     deep = tmp_path.joinpath(*["d" * 200] * 21)
     done = cli("run", PAPER, "--out", deep)
     assert done.returncode == 2 and "the path is" in done.stderr and "Traceback" not in done.stderr
