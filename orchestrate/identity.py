@@ -30,7 +30,6 @@ import os
 import re
 import shutil
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -83,71 +82,73 @@ def plugin_files(edp: Path, name: str) -> list[Path]:
     return [own] if own.is_file() else []
 
 
-class StampedFacts:
-    """What `compute` made of a file, kept between processes against the file's stamp (device,
-    inode, size, modification and change times: a change to the file changes one of them), as
-    git's index keeps a file's hash: one small JSON file per file in `folder`, named by the
-    digest of its path, written atomically, taken only when it names the path, the stamp and
-    `version` (the code that made the fact) and `check` accepts its fact. A fact of a file changed
-    less than SETTLED seconds before it was read is kept by this process only: another's change
-    within the same clock tick would keep its stamp. Within a process a fact follows the file
-    through a rename (device, inode, size and modification time). An unreadable or unwritable
-    store only costs the computing; compute's exceptions pass through, and nothing is kept of a
-    file it refused."""
+class KeptFacts:
+    """Facts kept between processes: one small JSON file per name in `folder`, named by the digest
+    of the name, written atomically, taken only when it names the name, the stamp asked for and
+    `version` (the code that made the fact) and `check` accepts its fact. An unreadable or
+    unwritable store only costs the computing."""
 
-    def __init__(self, folder: Path, compute, version: str = "", check=lambda fact: True):
-        self.folder, self.compute, self.version, self.check = folder, compute, version, check
-        self.memory, self.lock = {}, threading.Lock()
-
-    def forget(self) -> None:
-        """Read the stored facts anew at the next use, as a fresh process would."""
-        with self.lock:
-            self.memory.clear()
-
-    def of(self, path: Path):
-        now = time.time_ns()
-        status = path.stat()
-        stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
-        here = tuple(stamp[:4])
-        with self.lock:
-            if here in self.memory:
-                return self.memory[here]
-        entry = self.stored(str(path))
-        if entry and entry["stamp"] == stamp:
-            fact = entry["fact"]
-        else:
-            fact = self.compute(path)
-            if now - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
-                self.store({"path": str(path), "version": self.version, "stamp": stamp, "fact": fact})
-        with self.lock:
-            self.memory[here] = fact
-        return fact
+    def __init__(self, folder: Path, version: str = "", check=lambda fact: True):
+        self.folder, self.version, self.check = folder, version, check
 
     def entry_file(self, name: str) -> Path:
         return self.folder / f"{hashlib.sha256(name.encode('utf-8', 'surrogateescape')).hexdigest()[:32]}.json"
 
-    def stored(self, name: str) -> dict | None:
+    def stored(self, name: str, stamp: list | None = None):
+        """The fact kept for `name` at `stamp`, or None."""
         try:
             entry = json.loads(self.entry_file(name).read_text())
         except (OSError, ValueError):
             return None
         whole = (isinstance(entry, dict) and entry.get("path") == name and entry.get("version") == self.version
-                 and isinstance(entry.get("stamp"), list) and len(entry["stamp"]) == 5 and "fact" in entry)
-        return entry if whole and self.check(entry["fact"]) else None
+                 and entry.get("stamp") == stamp and "fact" in entry)
+        return entry["fact"] if whole and self.check(entry["fact"]) else None
 
-    def store(self, entry: dict) -> None:
+    def store(self, name: str, stamp: list | None, fact) -> None:
+        import tempfile  # only where a fact is new: its import (random's) is a few ms of every bin/ff call
+
         partial = None
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
             handle, partial = tempfile.mkstemp(dir=self.folder, suffix=".partial")
             with os.fdopen(handle, "w") as file:
-                json.dump(entry, file)
-            os.replace(partial, self.entry_file(entry["path"]))
+                json.dump({"path": name, "version": self.version, "stamp": stamp, "fact": fact}, file)
+            os.replace(partial, self.entry_file(name))
         except OSError:
             pass
         finally:
             if partial:
                 Path(partial).unlink(missing_ok=True)
+
+
+class StampedFacts(KeptFacts):
+    """What `compute` made of a file, kept against the file's stamp (device, inode, size,
+    modification and change times: a change to the file changes one of them, the change time even
+    when a program puts the others back), as git's index keeps a file's hash. A fact of a file
+    changed less than SETTLED seconds before it was read is kept by this process only: another's
+    change within the same clock tick would keep its stamp. compute's exceptions pass through,
+    and nothing is kept of a file it refused."""
+
+    def __init__(self, folder: Path, compute, version: str = "", check=lambda fact: True):
+        super().__init__(folder, version, check)
+        self.compute, self.memory, self.lock = compute, {}, threading.Lock()
+
+    def of(self, path: Path):
+        now = time.time_ns()
+        status = path.stat()
+        stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
+        here = tuple(stamp)
+        with self.lock:
+            if here in self.memory:
+                return self.memory[here]
+        fact = self.stored(str(path), stamp)
+        if fact is None:
+            fact = self.compute(path)
+            if now - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
+                self.store(str(path), stamp, fact)
+        with self.lock:
+            self.memory[here] = fact
+        return fact
 
 
 def sha256_of(path: Path) -> str:

@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -97,6 +98,24 @@ def test_bin_ff_checks_its_plugins_and_gives_the_identity_from_one_python_proces
     started = calls.read_text().splitlines()
     assert len(started) == 1 and started[0].startswith("-I -S "), started
     assert json.loads((tmp_path / "run" / "params_used.json").read_text())["solverIdentity"] == solver_identity()
+
+
+@pytest.mark.unit
+def test_a_fact_kept_by_this_process_is_taken_only_for_the_file_as_it_was(tmp_path):
+    """Within a process as between processes: a change that keeps the size and puts the
+    modification time back (`touch -r`, a careful copy) still changes the change time, and the fact
+    is computed anew (the process's memory once left the change time out)."""
+    from orchestrate import identity
+
+    facts = identity.StampedFacts(tmp_path / "store", lambda path: path.read_text())
+    file = tmp_path / "data.txt"
+    file.write_text("first")
+    assert facts.of(file) == "first"
+    before = file.stat()
+    time.sleep(0.05)  # change times move by the kernel's clock tick
+    file.write_text("other")
+    os.utime(file, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert facts.of(file) == "other"
 
 
 @pytest.mark.unit
