@@ -30,6 +30,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import unicodedata
 from dataclasses import dataclass, field
@@ -351,10 +352,68 @@ def gmsh_version() -> str:
 
 def committed_mesh(source: Path, numbers: dict[str, float], refine: int) -> Path | None:
     """The committed <geo>-n<n>.msh a body given only by n uses, when there is one: the project's
-    own, in meshes/ (a file beside a user's .geo is not read unchecked as its mesh)."""
+    own, in meshes/ (a file beside a user's .geo is not read unchecked as its mesh), refused unless
+    it is the mesh of the sources as they are now (require_made_from)."""
     committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
     own = source.resolve().parent == (REPO / "meshes").resolve() and committed.is_file() and not committed.is_symlink()
-    return committed if set(numbers) == {"n"} and refine == 0 and own else None
+    if set(numbers) != {"n"} or refine != 0 or not own:
+        return None
+    require_made_from(committed, read_sources(source), int(numbers["n"]))
+    return committed
+
+
+# A committed mesh's record (<mesh>.sha256, sha256sum's format) holds the SHA-256 of each source it
+# was made from (the .geo and what it includes, by their paths from the mesh's folder) and of the
+# mesh, after a comment saying how it was made; edp/lib/meshes.idp checks the .geo's and the mesh's
+# lines the same way when the driver is run by hand.
+def made_from(committed: Path, files: list[GeoFile], mesh: bytes) -> list[str]:
+    """The record's lines of the sources `files` and the mesh bytes `mesh`, comments aside."""
+    return [f"{hashlib.sha256(file.text.encode('utf-8', 'surrogateescape')).hexdigest()}  "
+            f"{os.path.relpath(file.path, committed.parent)}" for file in files] + \
+        [f"{hashlib.sha256(mesh).hexdigest()}  {committed.name}"]
+
+
+def require_made_from(committed: Path, files: list[GeoFile], n: int) -> None:
+    """Refuses the committed mesh unless its record lists exactly the sources as they are now and
+    the mesh as it is, naming what changed and the command that makes it again."""
+    record = record_of(committed)
+    try:
+        listed = [line for line in record.read_text().splitlines() if not line.startswith("#")]
+    except (OSError, UnicodeDecodeError):
+        listed = None
+    wanted = made_from(committed, files, mesh_bytes(committed))
+    if listed == wanted:
+        return
+    changed = [line.split("  ", 1)[1] for line in wanted if line not in (listed or [])]
+    why = (f"it has no record {record.name} of what it was made from" if listed is None else
+           f"{', '.join(changed) or 'the list of its sources'} changed since its record {record.name} was written")
+    raise MeshError(f"the committed mesh {committed} is not the mesh of {files[0].path.name} with n = {n} as it is "
+                    f"now ({why}): make it again with `python -m orchestrate commit-mesh {files[0].path} --n {n}`")
+
+
+def commit_mesh(source: Path, n: int) -> Path:
+    """The committed mesh <geo>-n<n>.msh of a .geo of meshes/ made again, with its record: by gmsh's
+    command line (gmsh -2 -setnumber n <n>), as the driver meshes a body by hand and as every
+    committed mesh was made, from the checked sources' copies, read back whole."""
+    files = read_sources(source)
+    if files[0].path.parent != PROJECT_MESHES:
+        raise GeoError(f"{source}: only the project's meshes/ hold committed meshes")
+    committed = files[0].path.with_name(f"{files[0].path.stem}-n{n}.msh")
+    with tempfile.TemporaryDirectory() as folder:
+        made = Path(folder) / committed.name
+        command = ["gmsh", "-2", str(write_copies(files, Path(folder))), "-setnumber", "n", str(n), "-o", str(made)]
+        done = subprocess.run(command, capture_output=True, text=True, errors="replace")
+        if done.returncode != 0 or not made.is_file():
+            raise MeshError(f"gmsh could not mesh {source} with n = {n}: {printable(done.stdout + done.stderr).strip()}")
+        read_msh(made)
+        mesh = made.read_bytes()
+    version = subprocess.run(["gmsh", "--version"], capture_output=True, text=True)
+    how = (f"# made by gmsh {(version.stdout + version.stderr).strip()}: gmsh -2 {files[0].path.name} -setnumber n {n} "
+           f"-o {committed.name}")
+    lines = [how, *made_from(committed, files, mesh)]
+    write_atomically(record_of(committed), "".join(f"{line}\n" for line in lines).encode())
+    write_atomically(committed, mesh)
+    return committed
 
 
 def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0, sizes: Path | None = None) -> str:

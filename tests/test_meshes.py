@@ -26,6 +26,69 @@ def test_committed_mesh_matches_its_source(tmp_path, body, n):
     np.testing.assert_array_equal(fresh.cells_dict["triangle"], committed.cells_dict["triangle"])
 
 
+@pytest.mark.parametrize("body, n", [(1, 24), (2, 32)])
+@pytest.mark.unit
+def test_a_committed_mesh_s_record_holds_its_geo_and_itself_as_they_are(body, n):
+    """Each committed mesh carries the SHA-256 of the .geo it was made from and its own, as sha256sum
+    gives them, after a comment saying how gmsh made it."""
+    record = (REPO / "meshes" / f"paper_body{body}-n{n}.msh.sha256").read_text().splitlines()
+    names = [f"paper_body{body}.geo", f"paper_body{body}-n{n}.msh"]
+    digests = subprocess.run(["sha256sum", "--", *names], cwd=REPO / "meshes", capture_output=True, text=True, check=True)
+    assert record[0].startswith("# made by gmsh ") and f"-setnumber n {n} " in record[0]
+    assert record[1:] == digests.stdout.splitlines()
+
+
+@pytest.fixture
+def own_meshes(tmp_path, monkeypatch):
+    """A copy of the paper's body 1 sources, committed mesh and record, taken as the project's meshes/."""
+    folder = tmp_path / "meshes"
+    folder.mkdir()
+    for name in ("paper_body1.geo", "paper_body1-n24.msh", "paper_body1-n24.msh.sha256"):
+        (folder / name).write_bytes((REPO / "meshes" / name).read_bytes())
+    monkeypatch.setattr(mesh, "REPO", tmp_path)
+    return folder
+
+
+@pytest.mark.parametrize("edit, words", [
+    ("paper_body1.geo", "paper_body1.geo changed since its record paper_body1-n24.msh.sha256 was written"),
+    ("paper_body1-n24.msh", "paper_body1-n24.msh changed since its record"),
+    ("paper_body1-n24.msh.sha256", "it has no record paper_body1-n24.msh.sha256 of what it was made from"),
+])
+@pytest.mark.unit
+def test_a_committed_mesh_is_refused_once_its_geo_or_itself_changed(own_meshes, edit, words):
+    """A body given only by n ran the committed <geo>-n<n>.msh whatever its .geo had become: an edited
+    paper_body1.geo still ran the old mesh. Now the mesh's record must hold both as they are."""
+    assert mesh.committed_mesh(own_meshes / "paper_body1.geo", {"n": 24}, 0) == own_meshes / "paper_body1-n24.msh"
+    changed = own_meshes / edit
+    if edit.endswith(".sha256"):
+        changed.unlink()
+    else:
+        moved = changed.read_bytes().replace(b"{6, 0, 0, h}", b"{6.5, 0, 0, h}")  # the corner (6, 0), in either file
+        changed.write_bytes(moved.replace(b"\n2 6 0 0\n", b"\n2 6.5 0 0\n"))
+    with pytest.raises(MeshError) as error:
+        mesh.committed_mesh(own_meshes / "paper_body1.geo", {"n": 24}, 0)
+    message = str(error.value)
+    assert words in message and "with n = 24" in message, message
+    assert f"`python -m orchestrate commit-mesh {own_meshes / 'paper_body1.geo'} --n 24`" in message
+
+
+def test_the_driver_run_by_hand_refuses_a_committed_mesh_whose_geo_changed(tmp_path):
+    """The driver follows the same rule by hand (edp/lib/meshes.idp: -geo1 with n1 takes the
+    <geo>-n<n1>.msh beside it): the record must hold the .geo's and the mesh's SHA-256 as they are."""
+    from orchestrate.freefem import MAIN, run_script
+
+    for name in ("paper_body1.geo", "paper_body1-n24.msh", "paper_body1-n24.msh.sha256"):
+        (tmp_path / name).write_bytes((REPO / "meshes" / name).read_bytes())
+    flags = ["-geo1", tmp_path / "paper_body1.geo", "-T", 0.05, "-N", 1]
+    assert run_script(MAIN, [*flags, "-out", tmp_path / "same"]).returncode == 0
+    geo = tmp_path / "paper_body1.geo"
+    geo.write_text(geo.read_text().replace("Point(4) = {3, 6, 0, h};", "Point(4) = {3.5, 6, 0, h};"))
+    done = run_script(MAIN, [*flags, "-out", tmp_path / "edited"])
+    assert done.returncode == 3, done.stdout[-500:]
+    assert f"the committed mesh '{tmp_path}/paper_body1-n24.msh' of body 1 is not the mesh of" in done.error_line
+    assert f"python -m orchestrate commit-mesh {geo} --n 24" in done.error_line
+
+
 @pytest.mark.unit
 def test_default_traces_do_not_match():
     counts = []
@@ -361,3 +424,4 @@ def test_control_characters_in_gmsh_s_text_are_shown_escaped(tmp_path):
     message = str(error.value)
     assert message.endswith(r"Error: \x1b[2J\x1b]0;owned\x07 \u202etxt.exe")
     assert message.isprintable()
+

@@ -286,21 +286,27 @@ def test_a_damaged_mesh_file_is_named_by_the_driver_and_by_python(tmp_path, dama
 
 # --- 6. every input file belongs to the completion key ------------------------------------------
 
-def test_an_edited_committed_mesh_runs_again(tmp_path):
+def test_a_committed_mesh_whose_geo_or_itself_changed_is_refused_until_made_again(tmp_path):
+    """A body given only by n ran the committed mesh whatever its .geo had become. An edited .geo
+    (here the top's split moved) or an edited mesh is refused, naming the command that makes the
+    mesh again; made again, the run is a new one (its mesh is another), not a skipped one."""
     copy = checkout_copy(tmp_path)
     command = ["sweep", "scenes/paper.toml", "--grid", "glue.gammaNu=1", "--set", "time.N=20", "--set",
                "output.images=false", "--workers", "1", "--out", tmp_path / "sweep"]
     assert in_copy(copy, *command).returncode == 0
-    mesh = copy / "meshes" / "paper_body1-n24.msh"
-    lines = mesh.read_text().splitlines()
-    start = lines.index("$Nodes") + 2
-    node = next(i for i in range(start, start + int(lines[start - 1]))
-                if all(1 < float(v) < 5 for v in lines[i].split()[1:3]))  # an interior node, moved a little
-    number, x, y, z = lines[node].split()
-    lines[node] = " ".join([number, str(float(x) + 0.05), y, z])
-    mesh.write_text("\n".join(lines) + "\n")
+    geo = copy / "meshes" / "paper_body1.geo"
+    geo.write_text(geo.read_text().replace("Point(4) = {3, 6, 0, h};", "Point(4) = {3.5, 6, 0, h};"))
+    refused = in_copy(copy, *command)
+    assert refused.returncode == 2, refused.stdout + refused.stderr
+    assert "paper_body1.geo changed since its record paper_body1-n24.msh.sha256 was written" in refused.stderr
+    assert f"python -m orchestrate commit-mesh {geo} --n 24" in refused.stderr
+    assert in_copy(copy, "commit-mesh", "meshes/paper_body1.geo", "--n", "24").returncode == 0
     again = in_copy(copy, *command)
     assert again.returncode == 0 and "skipped" not in again.stdout and "completed" in again.stdout
+    mesh = copy / "meshes" / "paper_body1-n24.msh"
+    mesh.write_text(mesh.read_text().replace("\n2 6 0 0\n", "\n2 6.05 0 0\n"))  # a corner moved by hand
+    refused = in_copy(copy, *command)
+    assert refused.returncode == 2 and "paper_body1-n24.msh changed since its record" in refused.stderr
 
 
 # --- 7, 8. nothing a user has is lost -----------------------------------------------------------
