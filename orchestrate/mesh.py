@@ -38,7 +38,8 @@ from pathlib import Path
 
 from orchestrate.freefem import REPO, dying_with_parent, stop_group
 from orchestrate.geo import PROJECT_MESHES, GeoError, GeoFile, copy_name, read_sources, write_copies
-from orchestrate.gmsh_mesher import NOT_P1_TRIANGLES, TOO_MANY_NODES, landlock_abi
+from orchestrate.gmsh_mesher import (BAD_GEOMETRY, BAD_SIZES, NOT_P1_TRIANGLES, SILENT_FAILURE, TOO_MANY_NODES,
+                                     landlock_abi)
 from orchestrate.identity import KeptFacts
 
 CACHE = REPO / "results" / ".cache" / "meshes"
@@ -557,19 +558,33 @@ def failure(source: Path, numbers: dict[str, float], refine: int, limits: MeshLi
                          "this machine's free memory could run: coarsen the mesh")
     lines = printable(stderr).strip().splitlines()
     if returncode == TOO_MANY_NODES:
-        found = json.loads(lines[-1])
-        return TooLarge(f"{geo} would give about {found['nodes']:,} nodes (an area of {found['area']:.4g} meshed at "
-                        f"its boundary's spacing {found['spacing']:.3g}{f', refined {refine} times' if refine else ''})"
-                        f"; a run on them needs about {found['nodes'] * BYTES_PER_NODE / 2**30:.1f} GiB and "
-                        f"{resources['free'] / 2**30:.1f} GiB are free: lower {limits.body}.mesh.n or "
-                        f"{limits.body}.mesh.refine, or the .geo's mesh sizes (Mesh.MeshSizeMax, its points' sizes)")
-    if returncode == NOT_P1_TRIANGLES:
+        return too_many_nodes(json.loads(lines[-1]), geo, refine, limits, resources)
+    if returncode in (NOT_P1_TRIANGLES, BAD_GEOMETRY):
         return MeshError(f"{limits.body}.mesh.geo ({source.name} with {numbers}): {lines[-1]}")
-    if any(word in line for line in lines for word in ("Out of memory", "bad_alloc", "MemoryError")):
+    if returncode == BAD_SIZES:
+        return MeshError(f"{limits.body}.mesh.sizes: {lines[-1]}")
+    if returncode == SILENT_FAILURE or any(word in line for line in lines
+                                           for word in ("Out of memory", "bad_alloc", "MemoryError")):
         return MeshError(f"gmsh ran out of the {resources['memory'] / 2**30:.1f} GiB it may use (this machine's free "
-                         f"memory) meshing {geo}: coarsen the mesh")
+                         f"memory) meshing {geo}, or stopped on another error of its own code without a message: "
+                         "coarsen the mesh")
     reason = lines[-1] if lines else (f"killed by signal {-returncode}" if returncode < 0 else f"exit code {returncode}")
     return MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+
+
+def too_many_nodes(found: dict, geo: str, refine: int, limits: MeshLimits, resources: dict) -> TooLarge:
+    """The refusal of a mesh whose estimated nodes (gmsh_mesher's TOO_MANY_NODES: from its boundary
+    mesh, or from its size field where that gives more) a run could not hold."""
+    refined = f", refined {refine} times" if refine else ""
+    need = (f"; a run on them needs about {found['nodes'] * BYTES_PER_NODE / 2**30:.1f} GiB and "
+            f"{resources['free'] / 2**30:.1f} GiB are free")
+    if found.get("field"):
+        return TooLarge(f"{limits.body}.mesh.sizes: the size field would give {geo} about {found['nodes']:,} nodes "
+                        f"(2/√3 ∫ h⁻² over its triangles{refined}){need}: give it larger sizes (a larger orchestrate "
+                        f"adapt --target), or lower {limits.body}.mesh.refine")
+    return TooLarge(f"{geo} would give about {found['nodes']:,} nodes (an area of {found['area']:.4g} meshed at "
+                    f"its boundary's spacing {found['spacing']:.3g}{refined}){need}: lower {limits.body}.mesh.n or "
+                    f"{limits.body}.mesh.refine, or the .geo's mesh sizes (Mesh.MeshSizeMax, its points' sizes)")
 
 
 def printable(text: str) -> str:
