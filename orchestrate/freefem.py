@@ -26,7 +26,7 @@ import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestrate.identity import solver_identity, stale_plugins
+from orchestrate.identity import plugins_fault, solver_identity
 
 REPO = Path(__file__).resolve().parent.parent
 MAIN = REPO / "edp" / "main.edp"
@@ -138,10 +138,9 @@ def require_own_plugins(repo: Path) -> None:
     """The project's plugins are built from their sources for this FreeFem++ (their stamps, as
     bin/plugins check reads them), once a process: a missing one would stop FreeFEM with a bare
     load error, a stale one run old code."""
-    stale = stale_plugins(repo / "edp" / "plugins")
-    if stale:
-        raise FileNotFoundError(f"the FreeFEM plugin {stale[0]} is missing, or not built from its source for this "
-                                "FreeFem++: run `make setup`")
+    fault = plugins_fault(repo / "edp" / "plugins")
+    if fault:
+        raise FileNotFoundError(fault)
 
 
 def on_load_path(folder: str | Path) -> bool:

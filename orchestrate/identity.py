@@ -16,9 +16,11 @@ results/.cache/digests/ against the file's stamp (size, times, inode), as git's 
 (`StampedFacts`): a command does not read it again on every run. The repository's own files,
 which a user edits, are hashed afresh by each process (8 ms).
 
-Standard library only: bin/ff and bin/plugins run this file with the system's python3
-(`python3 identity.py [main.edp]` prints the identity, `--plugin-stamp SOURCE` a plugin's stamp,
-`--stale-plugins` the .so files that need building).
+Standard library only: bin/ff and bin/plugins run this file with the system's python3, isolated
+and without its site packages (`python3 -I -S`: 13 ms to start here, not 65 ms). `--check-plugins` fails
+naming a plugin that needs building, and with `--identity` then prints the identity: bin/ff's two
+checks in one process. `--plugin-stamp SOURCE` prints a plugin's stamp, `--stale-plugins` the .so
+files that need building, and no option (or a driver's path) the identity.
 """
 from __future__ import annotations
 
@@ -28,7 +30,6 @@ import os
 import re
 import shutil
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -81,71 +82,73 @@ def plugin_files(edp: Path, name: str) -> list[Path]:
     return [own] if own.is_file() else []
 
 
-class StampedFacts:
-    """What `compute` made of a file, kept between processes against the file's stamp (device,
-    inode, size, modification and change times: a change to the file changes one of them), as
-    git's index keeps a file's hash: one small JSON file per file in `folder`, named by the
-    digest of its path, written atomically, taken only when it names the path, the stamp and
-    `version` (the code that made the fact) and `check` accepts its fact. A fact of a file changed
-    less than SETTLED seconds before it was read is kept by this process only: another's change
-    within the same clock tick would keep its stamp. Within a process a fact follows the file
-    through a rename (device, inode, size and modification time). An unreadable or unwritable
-    store only costs the computing; compute's exceptions pass through, and nothing is kept of a
-    file it refused."""
+class KeptFacts:
+    """Facts kept between processes: one small JSON file per name in `folder`, named by the digest
+    of the name, written atomically, taken only when it names the name, the stamp asked for and
+    `version` (the code that made the fact) and `check` accepts its fact. An unreadable or
+    unwritable store only costs the computing."""
 
-    def __init__(self, folder: Path, compute, version: str = "", check=lambda fact: True):
-        self.folder, self.compute, self.version, self.check = folder, compute, version, check
-        self.memory, self.lock = {}, threading.Lock()
-
-    def forget(self) -> None:
-        """Read the stored facts anew at the next use, as a fresh process would."""
-        with self.lock:
-            self.memory.clear()
-
-    def of(self, path: Path):
-        now = time.time_ns()
-        status = path.stat()
-        stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
-        here = tuple(stamp[:4])
-        with self.lock:
-            if here in self.memory:
-                return self.memory[here]
-        entry = self.stored(str(path))
-        if entry and entry["stamp"] == stamp:
-            fact = entry["fact"]
-        else:
-            fact = self.compute(path)
-            if now - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
-                self.store({"path": str(path), "version": self.version, "stamp": stamp, "fact": fact})
-        with self.lock:
-            self.memory[here] = fact
-        return fact
+    def __init__(self, folder: Path, version: str = "", check=lambda fact: True):
+        self.folder, self.version, self.check = folder, version, check
 
     def entry_file(self, name: str) -> Path:
         return self.folder / f"{hashlib.sha256(name.encode('utf-8', 'surrogateescape')).hexdigest()[:32]}.json"
 
-    def stored(self, name: str) -> dict | None:
+    def stored(self, name: str, stamp: list | None = None):
+        """The fact kept for `name` at `stamp`, or None."""
         try:
             entry = json.loads(self.entry_file(name).read_text())
         except (OSError, ValueError):
             return None
         whole = (isinstance(entry, dict) and entry.get("path") == name and entry.get("version") == self.version
-                 and isinstance(entry.get("stamp"), list) and len(entry["stamp"]) == 5 and "fact" in entry)
-        return entry if whole and self.check(entry["fact"]) else None
+                 and entry.get("stamp") == stamp and "fact" in entry)
+        return entry["fact"] if whole and self.check(entry["fact"]) else None
 
-    def store(self, entry: dict) -> None:
+    def store(self, name: str, stamp: list | None, fact) -> None:
+        import tempfile  # only where a fact is new: its import (random's) is a few ms of every bin/ff call
+
         partial = None
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
             handle, partial = tempfile.mkstemp(dir=self.folder, suffix=".partial")
             with os.fdopen(handle, "w") as file:
-                json.dump(entry, file)
-            os.replace(partial, self.entry_file(entry["path"]))
+                json.dump({"path": name, "version": self.version, "stamp": stamp, "fact": fact}, file)
+            os.replace(partial, self.entry_file(name))
         except OSError:
             pass
         finally:
             if partial:
                 Path(partial).unlink(missing_ok=True)
+
+
+class StampedFacts(KeptFacts):
+    """What `compute` made of a file, kept against the file's stamp (device, inode, size,
+    modification and change times: a change to the file changes one of them, the change time even
+    when a program puts the others back), as git's index keeps a file's hash. A fact of a file
+    changed less than SETTLED seconds before it was read is kept by this process only: another's
+    change within the same clock tick would keep its stamp. compute's exceptions pass through,
+    and nothing is kept of a file it refused."""
+
+    def __init__(self, folder: Path, compute, version: str = "", check=lambda fact: True):
+        super().__init__(folder, version, check)
+        self.compute, self.memory, self.lock = compute, {}, threading.Lock()
+
+    def of(self, path: Path):
+        now = time.time_ns()
+        status = path.stat()
+        stamp = [status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns]
+        here = tuple(stamp)
+        with self.lock:
+            if here in self.memory:
+                return self.memory[here]
+        fact = self.stored(str(path), stamp)
+        if fact is None:
+            fact = self.compute(path)
+            if now - max(status.st_mtime_ns, status.st_ctime_ns) > SETTLED * 1e9:
+                self.store(str(path), stamp, fact)
+        with self.lock:
+            self.memory[here] = fact
+        return fact
 
 
 def sha256_of(path: Path) -> str:
@@ -214,11 +217,28 @@ def stale_plugins(folder: Path = EDP / "plugins") -> list[Path]:
     return [source.with_suffix(".so") for source in sorted(folder.glob("*.cpp")) if not current(source)]
 
 
+def plugins_fault(folder: Path = EDP / "plugins") -> str | None:
+    """Why the project's plugins cannot run now, or None."""
+    if shutil.which("FreeFem++") is None:
+        return "FreeFem++ is not installed: run `make setup`"
+    stale = stale_plugins(folder)
+    if stale:
+        return f"the FreeFEM plugin {stale[0]} is missing, or not built from its source for this FreeFem++: run `make setup`"
+    return None
+
+
 def main(arguments: list[str]) -> int:
     if arguments[:1] == ["--plugin-stamp"] and len(arguments) == 2:
         print(plugin_stamp(Path(arguments[1])))
     elif arguments[:1] == ["--stale-plugins"] and len(arguments) <= 2:
         print(*stale_plugins(*map(Path, arguments[1:])), sep="\n")
+    elif arguments in (["--check-plugins"], ["--check-plugins", "--identity"]):
+        fault = plugins_fault()
+        if fault:
+            print(f"ERROR: {fault}", file=sys.stderr)
+            return 3
+        if "--identity" in arguments:
+            print(solver_identity())
     else:
         print(solver_identity(Path(arguments[0]) if arguments else EDP / "main.edp"))
     return 0

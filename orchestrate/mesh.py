@@ -30,6 +30,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import unicodedata
 from dataclasses import dataclass, field
@@ -37,8 +38,9 @@ from pathlib import Path
 
 from orchestrate.freefem import REPO, dying_with_parent, stop_group
 from orchestrate.geo import PROJECT_MESHES, GeoError, GeoFile, copy_name, read_sources, write_copies
-from orchestrate.gmsh_mesher import NOT_P1_TRIANGLES, TOO_MANY_NODES, landlock_abi
-from orchestrate.identity import StampedFacts
+from orchestrate.gmsh_mesher import (BAD_GEOMETRY, BAD_SIZES, NOT_P1_TRIANGLES, SILENT_FAILURE, TOO_MANY_NODES,
+                                     landlock_abi)
+from orchestrate.identity import KeptFacts
 
 CACHE = REPO / "results" / ".cache" / "meshes"
 BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
@@ -98,22 +100,24 @@ def geo_constants(source: Path) -> list[str]:
 class MeshInfo:
     """What a whole gmsh 2.2 file holds: node and triangle counts, the number of boundary
     segments of each physical line tag (the FreeFEM labels), the smallest triangle area, each
-    tag's segments (their end points, ((x1, y1), (x2, y2)) each) and, for a tag with a node in no
-    triangle, where."""
+    tag's segments (their end points, ((x1, y1), (x2, y2)) each), for a tag with a node in no
+    triangle, where, and the SHA-256 of the bytes read (what hand_over passes on must be them)."""
     nodes: int
     triangles: int
     segments: dict[int, int]
     smallest_area: float = math.inf
     curves: dict[int, list] = field(default_factory=dict)
     stray: dict[int, tuple[float, float]] = field(default_factory=dict)
+    digest: str = ""
 
     @classmethod
-    def from_record(cls, record: dict) -> MeshInfo:
+    def from_record(cls, record: dict, digest: str = "") -> MeshInfo:
         def by_tag(values: dict) -> dict:
             return {int(tag): value for tag, value in values.items()}
 
         return cls(record["nodes"], record["triangles"], by_tag(record["segments"]), record["smallestArea"],
-                   by_tag(record["curves"]), {tag: tuple(point) for tag, point in by_tag(record["stray"]).items()})
+                   by_tag(record["curves"]), {tag: tuple(point) for tag, point in by_tag(record["stray"]).items()},
+                   digest)
 
 
 def msh():
@@ -126,16 +130,22 @@ def msh():
 
 def parse_msh(path: Path) -> MeshInfo:
     """The file parsed, whatever was read before."""
-    return MeshInfo.from_record(parsed(path))
+    data = mesh_bytes(path)
+    return MeshInfo.from_record(parsed(path, data), hashlib.sha256(data).hexdigest())
 
 
-def parsed(path: Path) -> dict:
-    """The file parsed by orchestrate/msh.py: a MeshInfo's record."""
-    module = msh()
+def mesh_bytes(path: Path) -> bytes:
     try:
-        return module.parse_msh(path.read_bytes())
+        return path.read_bytes()
     except OSError as error:
         raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
+
+
+def parsed(path: Path, data: bytes) -> dict:
+    """The bytes of the file `path` parsed by orchestrate/msh.py: a MeshInfo's record."""
+    module = msh()
+    try:
+        return module.parse_msh(data)
     except module.NotWhole as fault:
         raise MeshError(f"mesh file {path} is not a whole gmsh 2.2 mesh: {fault} "
                         "(cut short by a full disk or a file-size limit? mesh it again)") from None
@@ -149,27 +159,31 @@ def whole_record(record) -> bool:
         return False
 
 
-# Files read whole, kept against their stamps across processes, by the parser that read them
-# (msh.py's digest): each mesh is parsed once, not once to trust it and once to use it, nor again
-# by the next run.
-WHOLE = StampedFacts(REPO / "results" / ".cache" / "meshes-read", parsed,
-                     hashlib.sha256(Path(__file__).with_name("msh.py").read_bytes()).hexdigest(), whole_record)
+# What the files read whole hold, by the SHA-256 of their bytes, kept across processes by the
+# parser that read them (msh.py's digest): each mesh is parsed once, not once to trust it and once
+# to use it, nor again by the next run; a file edited or swapped, whatever its stamp, is other bytes.
+WHOLE = KeptFacts(REPO / "results" / ".cache" / "meshes-read",
+                  hashlib.sha256(Path(__file__).with_name("msh.py").read_bytes()).hexdigest(), whole_record)
+_whole: dict[str, dict] = {}  # this process's records, by digest (hashing costs about 1 ms per MB)
 
 
 def read_msh(path: Path) -> MeshInfo:
     """Read a gmsh 2.2 ASCII file back whole: every section closed, as many node and element lines
-    as their headers say, finite coordinates. Raises MeshError naming the file and the fault. A file
-    read whole before and unchanged since is not parsed again (WHOLE)."""
-    try:
-        info = MeshInfo.from_record(WHOLE.of(path.resolve()))
-    except OSError as error:
-        raise MeshError(f"mesh file {path} cannot be read ({error.strerror})") from None
-    return info
+    as their headers say, finite coordinates. Raises MeshError naming the file and the fault. Bytes
+    read whole before are not parsed again (WHOLE)."""
+    data = mesh_bytes(path)
+    digest = hashlib.sha256(data).hexdigest()
+    record = _whole.get(digest) or WHOLE.stored(digest)
+    if record is None:
+        record = parsed(path, data)
+        WHOLE.store(digest, None, record)
+    _whole[digest] = record
+    return MeshInfo.from_record(record, digest)
 
 
 def forget_whole_files() -> None:
-    """Read every mesh file anew from now on, as a fresh process would (the benchmark times runs so)."""
-    WHOLE.forget()
+    """Read every mesh file's record anew from now on, as a fresh process would (the benchmark times runs so)."""
+    _whole.clear()
 
 
 # FreeFEM's gmshload stops ("bug : mes < 1e-8 !", exit 1) at a triangle of smaller area in an ASCII
@@ -183,56 +197,83 @@ def write_freefem(source: Path, target: Path) -> None:
     the triangles, then the boundary edges, by 1-based vertex numbers, with their physical tags),
     the mesh gmshload would make: its vertices in their order with label 1 and the doubles an
     ASCII reader parses (written back exactly by repr), the triangles and edges in their order."""
-    write_atomically(target, msh().freefem_text(source.read_bytes()))
+    write_atomically(target, msh().freefem_text(source.read_bytes()).encode())
 
 
-def write_atomically(target: Path, text: str) -> None:
-    """`text` at `target`, through a partial file of this process and thread (remove_orphans knows it)."""
+def write_atomically(target: Path, data: bytes) -> None:
+    """`data` at `target`, through a partial file of this process and thread (remove_orphans knows it)."""
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial{target.suffix}")
     try:
-        partial.write_text(text)
+        partial.write_bytes(data)
         partial.replace(target)  # atomic: a concurrent run reads a whole file or none
     finally:
         partial.unlink(missing_ok=True)
 
 
 def hand_over(path: Path, info: MeshInfo, target: Path) -> None:
-    """The mesh `path` (read whole: info) as the driver is to read it, at `target`: gmsh's file, or
-    where a triangle is below gmshload's area limit the same mesh in FreeFEM's format — for a cached
-    mesh made once, beside it in the cache (a warm run copies it), for a committed one each time."""
-    if info.smallest_area >= GMSHLOAD_SMALLEST_AREA:
-        source = path
-    elif path.resolve().parent == (REPO / "meshes").resolve():
-        write_freefem(path, target)
-        return
-    else:
-        source = freefem_twin(path)
-    shutil.copyfile(source, target)
-    if target.stat().st_size != source.stat().st_size:
-        raise MeshError(f"{target} is not a whole copy of {source} (a full disk?)")
+    """The mesh `path` (read whole: info) as the driver is to read it, at `target`: the bytes read,
+    or where a triangle is below gmshload's area limit the same mesh in FreeFEM's format — for a
+    cached mesh made once, beside it in the cache (a warm run copies it), for a committed one each
+    time. The file must still hold the bytes read (info.digest): the driver gets what was checked."""
+    data = mesh_bytes(path)
+    if hashlib.sha256(data).hexdigest() != info.digest:
+        raise MeshError(f"mesh file {path} changed after it was read and checked: run again")
+    if info.smallest_area < GMSHLOAD_SMALLEST_AREA:
+        own = path.resolve().parent == (REPO / "meshes").resolve()
+        data = msh().freefem_text(data).encode() if own else freefem_twin(path, data)
+    target.write_bytes(data)
 
 
-def freefem_twin(path: Path) -> Path:
-    """The cached gmsh mesh `path` in FreeFEM's format, beside it, named by the digest of that
-    mesh and of this module (which converts it): never the twin of another file or of an older
-    conversion. Made when missing or not whole (its first line's counts against its lines)."""
-    data = path.read_bytes()  # read once: the name and the content are of the same bytes
+def freefem_twin(path: Path, data: bytes) -> bytes:
+    """The cached gmsh mesh `data`, read from `path`, in FreeFEM's format, kept beside it and named
+    by the digest of that mesh and of this module (which converts it): never the twin of another
+    file or of an older conversion. Made again when it is not what its record holds (cached)."""
     digest = hashlib.sha256(data)
     digest.update(Path(__file__).read_bytes())
     twin = path.with_name(f"{path.stem}.{digest.hexdigest()[:16]}.mesh")
-    if not whole_freefem_mesh(twin):
-        write_atomically(twin, msh().freefem_text(data))
-    return twin
+    kept = cached(twin)
+    if kept is None:
+        kept = msh().freefem_text(data).encode()
+        record(twin, hashlib.sha256(kept).hexdigest())
+        write_atomically(twin, kept)
+    return kept
 
 
-def whole_freefem_mesh(path: Path) -> bool:
-    """Whether a FreeFEM-format mesh file is there with as many lines as its first line announces."""
+# Every cache entry has a record beside it, <entry>.sha256: the entry's SHA-256 in sha256sum's
+# format, written when the entry is made (before it: an entry is never there without one) and
+# checked at every use, so an entry edited, cut short or swapped for another file is made again,
+# never used.
+def record_of(entry: Path) -> Path:
+    return entry.with_name(entry.name + ".sha256")
+
+
+def recorded(entry: Path, digest: str) -> bool:
+    """Whether the record of `entry` holds `digest`."""
     try:
-        data = path.read_bytes()
-        counts = [int(field) for field in data[: data.index(b"\n")].split()]
-    except (OSError, ValueError):
+        return record_of(entry).read_text() == f"{digest}  {entry.name}\n"
+    except (OSError, UnicodeDecodeError):
         return False
-    return len(counts) == 3 and data.count(b"\n") == sum(counts) + 1
+
+
+def record(entry: Path, digest: str) -> None:
+    write_atomically(record_of(entry), f"{digest}  {entry.name}\n".encode())
+
+
+def discard(entry: Path) -> None:
+    entry.unlink(missing_ok=True)
+    record_of(entry).unlink(missing_ok=True)
+
+
+def cached(entry: Path) -> bytes | None:
+    """The bytes of a cache entry that its record holds, else None (and the entry removed)."""
+    try:
+        data = entry.read_bytes()
+    except OSError:
+        data = None
+    if data is not None and recorded(entry, hashlib.sha256(data).hexdigest()):
+        return data
+    discard(entry)
+    return None
 
 
 def cache_key(source: Path, numbers: dict[str, float], refine: int = 0, sizes: Path | None = None) -> str:
@@ -246,29 +287,29 @@ NUMBER = rb"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
 SIZES_LINE = re.compile(rb"ST\(" + rb",".join([NUMBER] * 9) + rb"\)\{" + rb",".join([NUMBER] * 3) + rb"\};")
 
 
-_checked_sizes: dict[tuple, bytes] = {}  # size fields checked whole, by (device, inode, size, modification time)
+_checked_sizes: set[bytes] = set()  # the SHA-256 of the size fields checked whole
 
 
 def read_sizes(path: Path | None, key: str = "mesh.sizes") -> bytes | None:
     """A size field for gmsh (`key`, bodyN.mesh.sizes): a gmsh view of element sizes as `orchestrate
     adapt` writes it, View "sizes" { one ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){h1,h2,h3}; a line }; and
     nothing else, every size a positive number, of a bounded length. gmsh reads it (by its .geo
-    parser, confined where the kernel can), so a file of any other form is refused. Checked once
-    per process while unchanged (a run's identity and its mesh both read it; a fine design takes
-    seconds to check), as read_msh does."""
+    parser, confined where the kernel can), so a file of any other form is refused. The same bytes
+    are checked once per process (a run's identity and its mesh both read it; a fine design takes
+    seconds to check, and its hash milliseconds)."""
     if path is None:
         return None
-    if not path.is_file() or path.stat().st_size > SIZES_BYTES:
+    if not path.is_file() or path.stat().st_size > SIZES_BYTES or len(text := path.read_bytes()) > SIZES_BYTES:
         raise MeshError(f"{key}: {path} is not a file of at most {SIZES_BYTES} bytes")
-    stat = path.stat()
-    stamp = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
-    if stamp not in _checked_sizes:
-        _checked_sizes[stamp] = checked_sizes(path, path.read_bytes(), key)
-    return _checked_sizes[stamp]
+    digest = hashlib.sha256(text).digest()
+    if digest not in _checked_sizes:
+        checked_sizes(path, text, key)
+        _checked_sizes.add(digest)
+    return text
 
 
-def checked_sizes(path: Path, text: bytes, key: str) -> bytes:
-    """`text`, the size field read from `path`, if it has read_sizes' form."""
+def checked_sizes(path: Path, text: bytes, key: str) -> None:
+    """Refuses `text`, the size field read from `path`, unless it has read_sizes' form."""
     lines = text.split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()
@@ -279,7 +320,6 @@ def checked_sizes(path: Path, text: bytes, key: str) -> bytes:
                         f'{SIZES_OPEN.decode()} ST(x1,y1,z1,x2,y2,z2,x3,y3,z3){{h1,h2,h3}}; ... {SIZES_CLOSE.decode()}')
     if not msh().positive_sizes(re.findall(NUMBER, b" ".join(lines[1:-1]))):
         raise MeshError(f"{key}: {path} holds a size that is not a positive number")
-    return text
 
 
 def sources_key(files: list[GeoFile], numbers: dict[str, float], refine: int, sizes: bytes | None = None) -> str:
@@ -313,10 +353,68 @@ def gmsh_version() -> str:
 
 def committed_mesh(source: Path, numbers: dict[str, float], refine: int) -> Path | None:
     """The committed <geo>-n<n>.msh a body given only by n uses, when there is one: the project's
-    own, in meshes/ (a file beside a user's .geo is not read unchecked as its mesh)."""
+    own, in meshes/ (a file beside a user's .geo is not read unchecked as its mesh), refused unless
+    it is the mesh of the sources as they are now (require_made_from)."""
     committed = source.with_name(f"{source.stem}-n{int(numbers['n'])}.msh")
     own = source.resolve().parent == (REPO / "meshes").resolve() and committed.is_file() and not committed.is_symlink()
-    return committed if set(numbers) == {"n"} and refine == 0 and own else None
+    if set(numbers) != {"n"} or refine != 0 or not own:
+        return None
+    require_made_from(committed, read_sources(source), int(numbers["n"]))
+    return committed
+
+
+# A committed mesh's record (<mesh>.sha256, sha256sum's format) holds the SHA-256 of each source it
+# was made from (the .geo and what it includes, by their paths from the mesh's folder) and of the
+# mesh, after a comment saying how it was made; edp/lib/meshes.idp checks the .geo's and the mesh's
+# lines the same way when the driver is run by hand.
+def made_from(committed: Path, files: list[GeoFile], mesh: bytes) -> list[str]:
+    """The record's lines of the sources `files` and the mesh bytes `mesh`, comments aside."""
+    return [f"{hashlib.sha256(file.text.encode('utf-8', 'surrogateescape')).hexdigest()}  "
+            f"{os.path.relpath(file.path, committed.parent)}" for file in files] + \
+        [f"{hashlib.sha256(mesh).hexdigest()}  {committed.name}"]
+
+
+def require_made_from(committed: Path, files: list[GeoFile], n: int) -> None:
+    """Refuses the committed mesh unless its record lists exactly the sources as they are now and
+    the mesh as it is, naming what changed and the command that makes it again."""
+    record = record_of(committed)
+    try:
+        listed = [line for line in record.read_text().splitlines() if not line.startswith("#")]
+    except (OSError, UnicodeDecodeError):
+        listed = None
+    wanted = made_from(committed, files, mesh_bytes(committed))
+    if listed == wanted:
+        return
+    changed = [line.split("  ", 1)[1] for line in wanted if line not in (listed or [])]
+    why = (f"it has no record {record.name} of what it was made from" if listed is None else
+           f"{', '.join(changed) or 'the list of its sources'} changed since its record {record.name} was written")
+    raise MeshError(f"the committed mesh {committed} is not the mesh of {files[0].path.name} with n = {n} as it is "
+                    f"now ({why}): make it again with `python -m orchestrate commit-mesh {files[0].path} --n {n}`")
+
+
+def commit_mesh(source: Path, n: int) -> Path:
+    """The committed mesh <geo>-n<n>.msh of a .geo of meshes/ made again, with its record: by gmsh's
+    command line (gmsh -2 -setnumber n <n>), as the driver meshes a body by hand and as every
+    committed mesh was made, from the checked sources' copies, read back whole."""
+    files = read_sources(source)
+    if files[0].path.parent != PROJECT_MESHES:
+        raise GeoError(f"{source}: only the project's meshes/ hold committed meshes")
+    committed = files[0].path.with_name(f"{files[0].path.stem}-n{n}.msh")
+    with tempfile.TemporaryDirectory() as folder:
+        made = Path(folder) / committed.name
+        command = ["gmsh", "-2", str(write_copies(files, Path(folder))), "-setnumber", "n", str(n), "-o", str(made)]
+        done = subprocess.run(command, capture_output=True, text=True, errors="replace")
+        if done.returncode != 0 or not made.is_file():
+            raise MeshError(f"gmsh could not mesh {source} with n = {n}: {printable(done.stdout + done.stderr).strip()}")
+        read_msh(made)
+        mesh = made.read_bytes()
+    version = subprocess.run(["gmsh", "--version"], capture_output=True, text=True)
+    how = (f"# made by gmsh {(version.stdout + version.stderr).strip()}: gmsh -2 {files[0].path.name} -setnumber n {n} "
+           f"-o {committed.name}")
+    lines = [how, *made_from(committed, files, mesh)]
+    write_atomically(record_of(committed), "".join(f"{line}\n" for line in lines).encode())
+    write_atomically(committed, mesh)
+    return committed
 
 
 def mesh_identity(source: Path, numbers: dict[str, float], refine: int = 0, sizes: Path | None = None) -> str:
@@ -346,16 +444,17 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
     target = cache / f"{source.stem}-{sources_key(files, numbers, refine, field)}.msh"
     if target.exists():
         try:
-            read_msh(target)
-            return target
+            if recorded(target, read_msh(target).digest):
+                return target
         except MeshError:
-            target.unlink(missing_ok=True)  # a damaged entry is rebuilt, never reused
+            pass
+        discard(target)  # a damaged, edited or swapped entry is made again, never reused
     partial = target.with_name(f"{target.stem}.{os.getpid()}.{threading.get_ident()}.partial.msh")
     if announce:
         announce()
     try:
         generate(files, numbers, refine, partial, limits, field)
-        read_msh(partial)
+        record(target, read_msh(partial).digest)
         os.replace(partial, target)  # atomic: a concurrent reader sees a whole file or none
     finally:
         partial.unlink(missing_ok=True)
@@ -365,7 +464,8 @@ def body_mesh(source: Path, numbers: dict[str, float], refine: int = 0, cache: P
 def remove_orphans(cache: Path) -> None:
     """Partial meshes and source copies of mesher processes that no longer run (killed while
     meshing)."""
-    for path in [*cache.glob("*.partial.msh"), *cache.glob("*.partial.mesh"), *cache.glob("*.partial.geo")]:
+    for path in [*cache.glob("*.partial.msh"), *cache.glob("*.partial.mesh"), *cache.glob("*.partial.sha256"),
+                 *cache.glob("*.partial.geo")]:
         try:
             pid = int(path.name.split(".")[-4])
             os.kill(pid, 0)
@@ -458,19 +558,33 @@ def failure(source: Path, numbers: dict[str, float], refine: int, limits: MeshLi
                          "this machine's free memory could run: coarsen the mesh")
     lines = printable(stderr).strip().splitlines()
     if returncode == TOO_MANY_NODES:
-        found = json.loads(lines[-1])
-        return TooLarge(f"{geo} would give about {found['nodes']:,} nodes (an area of {found['area']:.4g} meshed at "
-                        f"its boundary's spacing {found['spacing']:.3g}{f', refined {refine} times' if refine else ''})"
-                        f"; a run on them needs about {found['nodes'] * BYTES_PER_NODE / 2**30:.1f} GiB and "
-                        f"{resources['free'] / 2**30:.1f} GiB are free: lower {limits.body}.mesh.n or "
-                        f"{limits.body}.mesh.refine, or the .geo's mesh sizes (Mesh.MeshSizeMax, its points' sizes)")
-    if returncode == NOT_P1_TRIANGLES:
+        return too_many_nodes(json.loads(lines[-1]), geo, refine, limits, resources)
+    if returncode in (NOT_P1_TRIANGLES, BAD_GEOMETRY):
         return MeshError(f"{limits.body}.mesh.geo ({source.name} with {numbers}): {lines[-1]}")
-    if any(word in line for line in lines for word in ("Out of memory", "bad_alloc", "MemoryError")):
+    if returncode == BAD_SIZES:
+        return MeshError(f"{limits.body}.mesh.sizes: {lines[-1]}")
+    if returncode == SILENT_FAILURE or any(word in line for line in lines
+                                           for word in ("Out of memory", "bad_alloc", "MemoryError")):
         return MeshError(f"gmsh ran out of the {resources['memory'] / 2**30:.1f} GiB it may use (this machine's free "
-                         f"memory) meshing {geo}: coarsen the mesh")
+                         f"memory) meshing {geo}, or stopped on another error of its own code without a message: "
+                         "coarsen the mesh")
     reason = lines[-1] if lines else (f"killed by signal {-returncode}" if returncode < 0 else f"exit code {returncode}")
     return MeshError(f"gmsh could not mesh {source.name} with {numbers}: {reason}")
+
+
+def too_many_nodes(found: dict, geo: str, refine: int, limits: MeshLimits, resources: dict) -> TooLarge:
+    """The refusal of a mesh whose estimated nodes (gmsh_mesher's TOO_MANY_NODES: from its boundary
+    mesh, or from its size field where that gives more) a run could not hold."""
+    refined = f", refined {refine} times" if refine else ""
+    need = (f"; a run on them needs about {found['nodes'] * BYTES_PER_NODE / 2**30:.1f} GiB and "
+            f"{resources['free'] / 2**30:.1f} GiB are free")
+    if found.get("field"):
+        return TooLarge(f"{limits.body}.mesh.sizes: the size field would give {geo} about {found['nodes']:,} nodes "
+                        f"(2/√3 ∫ h⁻² over its triangles{refined}){need}: give it larger sizes (a larger orchestrate "
+                        f"adapt --target), or lower {limits.body}.mesh.refine")
+    return TooLarge(f"{geo} would give about {found['nodes']:,} nodes (an area of {found['area']:.4g} meshed at "
+                    f"its boundary's spacing {found['spacing']:.3g}{refined}){need}: lower {limits.body}.mesh.n or "
+                    f"{limits.body}.mesh.refine, or the .geo's mesh sizes (Mesh.MeshSizeMax, its points' sizes)")
 
 
 def printable(text: str) -> str:

@@ -22,6 +22,7 @@ from pathlib import Path
 from orchestrate import expr
 from orchestrate.freefem import REPO, InputError
 from orchestrate.geo import GeoError, read_sources
+from orchestrate.gmsh_mesher import box_fault
 from orchestrate.mesh import TIME_LIMIT, geo_constants
 from orchestrate.parameters import (BODY_SUFFIXES, PARAMETERS, RULES, driver_values, field, rule_holds, rule_names,
                                     scene_key, unbounded_field)
@@ -177,6 +178,9 @@ class Mesh(Table):
             x0, x1, y0, y1 = self.rectangle
             if not (x0 < x1 and y0 < y1):
                 raise ValueError(f"rectangle {list(self.rectangle)} needs finite x0 < x1 and y0 < y1")
+            fault = box_fault((x0, y0, x1, y1))  # the child that meshes any .geo refuses it too, naming no key
+            if fault:
+                raise ValueError(f"rectangle {list(self.rectangle)}: {fault}")
 
     @after
     def known_parameters(self):

@@ -28,7 +28,7 @@ LAYERS = [
     {"studies", "studies.convergence", "studies.stability", "studies.hertz", "studies.bench", "studies.reports",
      "studies.gallery", "studies.modeone", "studies.cantilever", "studies.adaptivity"},
     {"cli", "cli.options", "cli.run", "cli.sweep", "cli.plot", "cli.render", "cli.compare", "cli.reference", "cli.gallery",
-     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone", "cli.cantilever", "cli.estimate", "cli.adapt", "cli.adaptivity"},
+     "cli.bench", "cli.convergence", "cli.stability", "cli.hertz", "__main__", "", "cli.modeone", "cli.cantilever", "cli.estimate", "cli.adapt", "cli.adaptivity", "cli.commitmesh"},
 ]
 LAYER = {module: depth for depth, layer in enumerate(LAYERS) for module in layer}
 

@@ -26,6 +26,69 @@ def test_committed_mesh_matches_its_source(tmp_path, body, n):
     np.testing.assert_array_equal(fresh.cells_dict["triangle"], committed.cells_dict["triangle"])
 
 
+@pytest.mark.parametrize("body, n", [(1, 24), (2, 32)])
+@pytest.mark.unit
+def test_a_committed_mesh_s_record_holds_its_geo_and_itself_as_they_are(body, n):
+    """Each committed mesh carries the SHA-256 of the .geo it was made from and its own, as sha256sum
+    gives them, after a comment saying how gmsh made it."""
+    record = (REPO / "meshes" / f"paper_body{body}-n{n}.msh.sha256").read_text().splitlines()
+    names = [f"paper_body{body}.geo", f"paper_body{body}-n{n}.msh"]
+    digests = subprocess.run(["sha256sum", "--", *names], cwd=REPO / "meshes", capture_output=True, text=True, check=True)
+    assert record[0].startswith("# made by gmsh ") and f"-setnumber n {n} " in record[0]
+    assert record[1:] == digests.stdout.splitlines()
+
+
+@pytest.fixture
+def own_meshes(tmp_path, monkeypatch):
+    """A copy of the paper's body 1 sources, committed mesh and record, taken as the project's meshes/."""
+    folder = tmp_path / "meshes"
+    folder.mkdir()
+    for name in ("paper_body1.geo", "paper_body1-n24.msh", "paper_body1-n24.msh.sha256"):
+        (folder / name).write_bytes((REPO / "meshes" / name).read_bytes())
+    monkeypatch.setattr(mesh, "REPO", tmp_path)
+    return folder
+
+
+@pytest.mark.parametrize("edit, words", [
+    ("paper_body1.geo", "paper_body1.geo changed since its record paper_body1-n24.msh.sha256 was written"),
+    ("paper_body1-n24.msh", "paper_body1-n24.msh changed since its record"),
+    ("paper_body1-n24.msh.sha256", "it has no record paper_body1-n24.msh.sha256 of what it was made from"),
+])
+@pytest.mark.unit
+def test_a_committed_mesh_is_refused_once_its_geo_or_itself_changed(own_meshes, edit, words):
+    """A body given only by n ran the committed <geo>-n<n>.msh whatever its .geo had become: an edited
+    paper_body1.geo still ran the old mesh. Now the mesh's record must hold both as they are."""
+    assert mesh.committed_mesh(own_meshes / "paper_body1.geo", {"n": 24}, 0) == own_meshes / "paper_body1-n24.msh"
+    changed = own_meshes / edit
+    if edit.endswith(".sha256"):
+        changed.unlink()
+    else:
+        moved = changed.read_bytes().replace(b"{6, 0, 0, h}", b"{6.5, 0, 0, h}")  # the corner (6, 0), in either file
+        changed.write_bytes(moved.replace(b"\n2 6 0 0\n", b"\n2 6.5 0 0\n"))
+    with pytest.raises(MeshError) as error:
+        mesh.committed_mesh(own_meshes / "paper_body1.geo", {"n": 24}, 0)
+    message = str(error.value)
+    assert words in message and "with n = 24" in message, message
+    assert f"`python -m orchestrate commit-mesh {own_meshes / 'paper_body1.geo'} --n 24`" in message
+
+
+def test_the_driver_run_by_hand_refuses_a_committed_mesh_whose_geo_changed(tmp_path):
+    """The driver follows the same rule by hand (edp/lib/meshes.idp: -geo1 with n1 takes the
+    <geo>-n<n1>.msh beside it): the record must hold the .geo's and the mesh's SHA-256 as they are."""
+    from orchestrate.freefem import MAIN, run_script
+
+    for name in ("paper_body1.geo", "paper_body1-n24.msh", "paper_body1-n24.msh.sha256"):
+        (tmp_path / name).write_bytes((REPO / "meshes" / name).read_bytes())
+    flags = ["-geo1", tmp_path / "paper_body1.geo", "-T", 0.05, "-N", 1]
+    assert run_script(MAIN, [*flags, "-out", tmp_path / "same"]).returncode == 0
+    geo = tmp_path / "paper_body1.geo"
+    geo.write_text(geo.read_text().replace("Point(4) = {3, 6, 0, h};", "Point(4) = {3.5, 6, 0, h};"))
+    done = run_script(MAIN, [*flags, "-out", tmp_path / "edited"])
+    assert done.returncode == 3, done.stdout[-500:]
+    assert f"the committed mesh '{tmp_path}/paper_body1-n24.msh' of body 1 is not the mesh of" in done.error_line
+    assert f"python -m orchestrate commit-mesh {geo} --n 24" in done.error_line
+
+
 @pytest.mark.unit
 def test_default_traces_do_not_match():
     counts = []
@@ -361,3 +424,92 @@ def test_control_characters_in_gmsh_s_text_are_shown_escaped(tmp_path):
     message = str(error.value)
     assert message.endswith(r"Error: \x1b[2J\x1b]0;owned\x07 \u202etxt.exe")
     assert message.isprintable()
+
+
+# --- mesh inputs within what gmsh meshes faithfully (issue 47, item 5) ------------------------------
+
+from orchestrate import gmsh_mesher  # noqa: E402  (the bounds the refusals name)
+
+FAR = [("extent", {"x1": 1e300}, r"the body's extent \(the larger side of its box\) 1e\+300 is outside \[1e-06, 1e\+15\]"),
+       ("offset", {"x0": 1e8, "x1": 1e8 + 1}, r"the body's coordinate 1e\+08 is outside \[-10000, 10000\], 10000 times "
+                                               r"its extent 1 "),
+       ("flat", {"x1": 1e6, "y1": 1e-3}, r"the shorter side of the body's box 0\.001 is below 1, 1e-06 times its "
+                                         r"extent 1e\+06")]
+
+
+@pytest.mark.parametrize("case, numbers, words", FAR, ids=[case for case, _, _ in FAR])
+@pytest.mark.unit
+def test_a_rectangle_gmsh_would_not_mesh_faithfully_is_refused_naming_the_key(case, numbers, words):
+    """mesh.rectangle = [0, 1e300, 0, 1] sent gmsh to 7 GB; a body 1e8 of its extents from the origin
+    came back with a quarter of its nodes, one flatter than 1e-6 with its points merged."""
+    from orchestrate.scene import Scene, SceneError
+
+    box = {"x0": 0.0, "x1": 1.0, "y0": 0.0, "y1": 1.0, **numbers}
+    rectangle = [box["x0"], box["x1"], box["y0"], box["y1"]]
+    with pytest.raises(SceneError, match=rf"body2\.mesh: rectangle \[.*\]: {words}"):
+        Scene.load(REPO / "scenes" / "paper.toml", {"body2.mesh.geo": None, "body2.mesh.rectangle": rectangle})
+    assert gmsh_mesher.EXTENT == (1e-6, 1e15) and gmsh_mesher.OFFSET == 1e4 and gmsh_mesher.FLAT == 1e-6
+
+
+@pytest.mark.parametrize("case, numbers, words", FAR, ids=[case for case, _, _ in FAR])
+def test_a_geo_whose_parameters_put_it_beyond_what_gmsh_meshes_faithfully_is_refused(tmp_path, monkeypatch, case,
+                                                                                      numbers, words):
+    """The same bounds for any .geo, whatever sets its coordinates (its parameters here): the mesher
+    checks the geometry gmsh read before it meshes anything. (At 1e300 gmsh took all the memory it
+    was given, here 1 GiB, and failed with the bare word "Exception".)"""
+    monkeypatch.setattr(mesh, "memory_available", lambda: 2 ** 30)
+    started = time.monotonic()
+    with pytest.raises(MeshError, match=rf"^body1\.mesh\.geo \(block\.geo with .*\): {words}"):
+        body_mesh(user_geo(tmp_path, ""), {"n": 10.0, **numbers}, cache=tmp_path / "cache", limits=MeshLimits("body1", 30))
+    assert time.monotonic() - started < 10
+
+
+SQUARE_FIELD = "ST(0,0,0,1,0,0,1,1,0){0.25,0.25,0.25};\nST(0,0,0,1,1,0,0,1,0){0.25,0.25,%s};\n"
+BAD_FIELDS = [
+    ("size 1e-300", SQUARE_FIELD % "1e-300", r"size 1e-300 at line 3 is below the sizes allowed \(the allowed range "
+                                             r"is \[1e-08, 100\], 1e-08 to 100 times the extent 1 of this body\)"),
+    ("size 1e-320", SQUARE_FIELD % "1e-320", r"size 9\.99989e-321 at line 3 is below the sizes allowed"),
+    ("size 1e300", SQUARE_FIELD % "1e300", r"size 1e\+300 at line 3 is above the sizes allowed"),
+    ("far point", SQUARE_FIELD % "0.25" + "ST(1e300,0,0,1e300,1,0,1e300,0,1){0.25,0.25,0.25};\n",
+     r"point \(1e\+300, 0, 0\) at line 4 lies outside \[-1, 2\] × \[-1, 2\] × \[-1, 1\], the body's box widened by its "
+     r"extent 1"),
+]
+
+
+@pytest.mark.parametrize("case, body, words", BAD_FIELDS, ids=[case for case, _, _ in BAD_FIELDS])
+def test_a_size_field_beyond_what_gmsh_follows_is_refused_naming_the_line_and_the_range(tmp_path, case, body, words):
+    """gmsh ignored a 1e-300 size without a word (the mesh was made as if the field were not
+    there), and meshed a 6 × 6 body whose field held 1e-320 until its time limit. Sizes lie within
+    [1e-8, 1e2] times the body's extent, the field's points within its box widened by the extent."""
+    view = tmp_path / "sizes.pos"
+    view.write_text('View "sizes" {\n' + body + "};\n")
+    started = time.monotonic()
+    with pytest.raises(MeshError, match=rf"^body1\.mesh\.sizes: {words}"):
+        body_mesh(REPO / "meshes" / "rectangle.geo", {"n": 4, "adapted": 1}, cache=tmp_path / "cache",
+                  limits=MeshLimits("body1", 20), sizes=view)
+    assert time.monotonic() - started < 10
+    assert gmsh_mesher.SIZES == (1e-8, 1e2)
+
+
+def test_a_size_field_finer_inside_than_on_the_boundary_is_counted_before_meshing(tmp_path, monkeypatch):
+    """The boundary's spacing misses a field that is fine inside only: the nodes its sizes ask for,
+    2/√3 ∫ h⁻², are counted from the field itself. A unit square whose field is 0.3 at the corners
+    and 0.0003 at the centre (sizes linear on four triangles) asks for about 150 nodes (checked by
+    quadrature below; gmsh makes 203), on a machine with room for 100: refused before meshing (the
+    boundary's estimate, 13 nodes, let gmsh make it)."""
+    monkeypatch.setattr(mesh, "memory_available", lambda: 100 * mesh.BYTES_PER_NODE)
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    view = tmp_path / "sizes.pos"
+    view.write_text('View "sizes" {\n' + "".join(f"ST(0.5,0.5,0,{a[0]},{a[1]},0,{b[0]},{b[1]},0){{0.0003,0.3,0.3}};\n"
+                                                 for a, b in zip(corners, corners[1:] + corners[:1])) + "};\n")
+    with pytest.raises(TooLarge) as error:
+        body_mesh(REPO / "meshes" / "rectangle.geo", {"n": 4, "adapted": 1}, cache=tmp_path / "cache",
+                  limits=MeshLimits("body1", 20), sizes=view)
+    message = str(error.value)
+    assert message.startswith("body1.mesh.sizes: the size field would give body1's .geo (rectangle.geo"), message
+    nodes = int(message.split("about ")[1].split(" nodes")[0].replace(",", ""))
+    s, t = np.meshgrid((np.arange(2000) + 0.5) / 2000, (np.arange(2000) + 0.5) / 2000, indexing="ij")
+    s = s ** 4  # graded toward the centre, where h⁻² peaks; a point (1 − s)·centre + s·(edge point t)
+    weight = 4 * s * np.gradient(s, axis=0) / 2000 * 0.5  # four triangles, Jacobian s·2|T| with |T| = 1/4
+    quadrature = (2 / 3 ** 0.5) * np.sum(weight / (0.0003 * (1 - s) + 0.3 * s) ** 2)
+    assert abs(nodes - quadrature) < 0.01 * quadrature + 1, (nodes, quadrature)

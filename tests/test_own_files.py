@@ -322,11 +322,12 @@ def test_code_hidden_by_gmsh_s_skipping_starts_no_program(tmp_path, form):
 
 
 def test_the_mesher_writes_its_one_target_whatever_the_geo_sets(tmp_path):
-    """A .geo may set mesh options, but the file written is one gmsh 2.2 text file, the target."""
+    """A .geo may set mesh options, but the file written is one gmsh 2.2 text file, the target (beside
+    it in the cache, its record)."""
     source = tmp_path / "block.geo"
     source.write_text(RECTANGLE + "Mesh 2; Mesh.PartitionSplitMeshFiles = 1; Mesh.Binary = 1; PartitionMesh 3;\n")
     target = body_mesh(source, {"n": 4.0}, cache=tmp_path / "cache")
-    assert [path.name for path in target.parent.iterdir()] == [target.name]
+    assert sorted(path.name for path in target.parent.iterdir()) == [target.name, f"{target.name}.sha256"]
     assert target.read_text().startswith("$MeshFormat\n2.2 0 8\n")
 
 

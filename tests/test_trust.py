@@ -11,6 +11,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import meshio
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -174,6 +175,71 @@ def test_a_damaged_cache_entry_is_rebuilt(tmp_path):
     assert again == good and again.read_bytes() == whole
 
 
+def test_a_cache_entry_swapped_for_another_whole_mesh_is_made_again(tmp_path):
+    """A valid mesh put in another entry's place (a copy over it, an editor, a bad sync) is no mesh
+    of that entry's sources: its record (its SHA-256, written when it was made) refuses it, and
+    the entry is made again, never used; so is one edited where its record was edited with it."""
+    source = REPO / "meshes" / "rectangle.geo"
+    entry = body_mesh(source, {"n": 5.0}, cache=tmp_path)
+    made = entry.read_bytes()
+    other = body_mesh(source, {"n": 7.0}, cache=tmp_path)
+    shutil.copyfile(other, entry)
+    assert body_mesh(source, {"n": 5.0}, cache=tmp_path) == entry and entry.read_bytes() == made
+    assert meshio.read(entry).points.shape[0] < meshio.read(other).points.shape[0]  # n = 5's, not n = 7's
+    (entry.parent / f"{entry.name}.sha256").unlink()  # an entry without its record is not taken either
+    before = entry.stat().st_mtime_ns
+    time.sleep(0.05)
+    body_mesh(source, {"n": 5.0}, cache=tmp_path)
+    assert entry.stat().st_mtime_ns != before and entry.read_bytes() == made
+
+
+@pytest.mark.unit
+def test_a_mesh_file_changed_in_place_is_read_again(tmp_path):
+    """What a mesh file holds is known by its bytes, not by its stamp: rewritten in place with the
+    same size and its modification time put back, it is read again (the process once kept what it
+    had read against device, inode, size and modification time, and took the new file for whole)."""
+    path = tmp_path / "body.msh"
+    whole = (REPO / "meshes" / "paper_body1-n24.msh").read_bytes()
+    path.write_bytes(whole)
+    assert read_msh(path).nodes == 625  # (24 + 1)² nodes of the structured mesh
+    before = path.stat()
+    path.write_bytes(whole.replace(b"$EndElements", b"$EndElementZ"))  # same size, no longer whole
+    os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+    with pytest.raises(MeshError, match="not a whole gmsh 2.2 mesh"):
+        read_msh(path)
+
+
+@pytest.mark.unit
+def test_a_mesh_changed_after_it_was_read_is_not_handed_to_the_driver(tmp_path):
+    """The driver gets the bytes that were checked (labels, curves, size): a mesh swapped between
+    its reading and its copy into the run folder is refused, not copied."""
+    from orchestrate.mesh import hand_over
+
+    path = tmp_path / "body.msh"
+    path.write_bytes((REPO / "meshes" / "paper_body1-n24.msh").read_bytes())
+    info = read_msh(path)
+    path.write_bytes((REPO / "meshes" / "paper_body2-n32.msh").read_bytes())
+    with pytest.raises(MeshError, match="changed after it was read"):
+        hand_over(path, info, tmp_path / "body1.msh")
+    assert not (tmp_path / "body1.msh").exists()
+
+
+@pytest.mark.unit
+def test_a_size_field_changed_in_place_is_checked_again(tmp_path):
+    """A size field is checked by its bytes too: one given a negative size in place, with its size
+    and modification time kept, is refused (it was taken as the field checked before)."""
+    from orchestrate.mesh import read_sizes
+
+    view = tmp_path / "sizes.pos"
+    view.write_text('View "sizes" {\nST(0,0,0,1,0,0,1,1,0){0.25,0.25,0.25};\nST(0,0,0,1,1,0,0,1,0){0.25,0.25,0.25};\n};\n')
+    read_sizes(view, "body1.mesh.sizes")
+    before = view.stat()
+    view.write_text(view.read_text().replace("{0.25,", "{-.25,", 1))
+    os.utime(view, ns=(before.st_atime_ns, before.st_mtime_ns))
+    with pytest.raises(MeshError, match="body1.mesh.sizes: .* holds a size that is not a positive number"):
+        read_sizes(view, "body1.mesh.sizes")
+
+
 def test_gmsh_under_a_file_size_limit_leaves_no_cache_entry(tmp_path):
     code = ("import resource, signal, sys; from pathlib import Path; from orchestrate.mesh import body_mesh;"
             "signal.signal(signal.SIGXFSZ, signal.SIG_IGN); resource.setrlimit(resource.RLIMIT_FSIZE, (20000, 20000));"
@@ -205,21 +271,27 @@ def test_a_damaged_mesh_file_is_named_by_the_driver_and_by_python(tmp_path, dama
 
 # --- 6. every input file belongs to the completion key ------------------------------------------
 
-def test_an_edited_committed_mesh_runs_again(tmp_path):
+def test_a_committed_mesh_whose_geo_or_itself_changed_is_refused_until_made_again(tmp_path):
+    """A body given only by n ran the committed mesh whatever its .geo had become. An edited .geo
+    (here the top's split moved) or an edited mesh is refused, naming the command that makes the
+    mesh again; made again, the run is a new one (its mesh is another), not a skipped one."""
     copy = checkout_copy(tmp_path)
     command = ["sweep", "scenes/paper.toml", "--grid", "glue.gammaNu=1", "--set", "time.N=20", "--set",
                "output.images=false", "--workers", "1", "--out", tmp_path / "sweep"]
     assert in_copy(copy, *command).returncode == 0
-    mesh = copy / "meshes" / "paper_body1-n24.msh"
-    lines = mesh.read_text().splitlines()
-    start = lines.index("$Nodes") + 2
-    node = next(i for i in range(start, start + int(lines[start - 1]))
-                if all(1 < float(v) < 5 for v in lines[i].split()[1:3]))  # an interior node, moved a little
-    number, x, y, z = lines[node].split()
-    lines[node] = " ".join([number, str(float(x) + 0.05), y, z])
-    mesh.write_text("\n".join(lines) + "\n")
+    geo = copy / "meshes" / "paper_body1.geo"
+    geo.write_text(geo.read_text().replace("Point(4) = {3, 6, 0, h};", "Point(4) = {3.5, 6, 0, h};"))
+    refused = in_copy(copy, *command)
+    assert refused.returncode == 2, refused.stdout + refused.stderr
+    assert "paper_body1.geo changed since its record paper_body1-n24.msh.sha256 was written" in refused.stderr
+    assert f"python -m orchestrate commit-mesh {geo} --n 24" in refused.stderr
+    assert in_copy(copy, "commit-mesh", "meshes/paper_body1.geo", "--n", "24").returncode == 0
     again = in_copy(copy, *command)
     assert again.returncode == 0 and "skipped" not in again.stdout and "completed" in again.stdout
+    mesh = copy / "meshes" / "paper_body1-n24.msh"
+    mesh.write_text(mesh.read_text().replace("\n2 6 0 0\n", "\n2 6.05 0 0\n"))  # a corner moved by hand
+    refused = in_copy(copy, *command)
+    assert refused.returncode == 2 and "paper_body1-n24.msh changed since its record" in refused.stderr
 
 
 # --- 7, 8. nothing a user has is lost -----------------------------------------------------------

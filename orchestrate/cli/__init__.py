@@ -1,7 +1,7 @@
 """python -m orchestrate {run,sweep,plot,render,compare,estimate,adapt,gallery,study,bench,
-reference}: scenes, parameter sweeps and their plots, images, runs compared, a run's error
-estimated, meshes adapted to it, the gallery, studies, the benchmark and the scene format's
-reference from the shell.
+reference,commit-mesh}: scenes, parameter sweeps and their plots, images, runs compared, a run's
+error estimated, meshes adapted to it, the gallery, studies, the benchmark, the scene format's
+reference and the committed meshes from the shell.
 
 Each command has a module here (orchestrate/cli/NAME.py: its arguments, add_arguments, and what
 it does with them, command), over the package's functions; argparse stays in this folder. This
@@ -17,7 +17,8 @@ from orchestrate.freefem import FILE_PROBLEM, FileProblem, InputError, SolverErr
 from orchestrate.mesh import MeshError
 
 COMMANDS = tuple(f"orchestrate.cli.{name}" for name in
-                 ("run", "sweep", "plot", "render", "compare", "estimate", "adapt", "gallery", "bench", "reference"))
+                 ("run", "sweep", "plot", "render", "compare", "estimate", "adapt", "gallery", "bench", "reference",
+                  "commitmesh"))
 STUDIES = tuple(f"orchestrate.cli.{name}" for name in
                 ("convergence", "stability", "hertz", "modeone", "cantilever", "adaptivity"))
 
