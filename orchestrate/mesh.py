@@ -41,9 +41,9 @@ from orchestrate.geo import PROJECT_MESHES, GeoError, GeoFile, copy_name, read_s
 from orchestrate.gmsh_mesher import (BAD_GEOMETRY, BAD_SIZES, NOT_P1_TRIANGLES, SILENT_FAILURE, TOO_MANY_NODES,
                                      landlock_abi)
 from orchestrate.identity import KeptFacts
+from orchestrate.parameters import BYTES_PER_NODE
 
 CACHE = REPO / "results" / ".cache" / "meshes"
-BYTES_PER_NODE = 8000  # FreeFem++'s peak memory per mesh node, measured at h1 = 6/96 and 6/192 (bm: 6.3–6.7 kB)
 MSH_BYTES_PER_NODE = 120  # a gmsh 2.2 text file per node (its triangles included): 83 MB at 741 038 nodes
 GMSH_ADDRESS_SPACE = 2 ** 30  # the mesher's address space before it meshes (python, gmsh, threads: 0.4 GB measured)
 # The largest mesh a run fits in this machine's 23 GiB is about 2.9 M nodes (BYTES_PER_NODE). gmsh's
@@ -603,18 +603,3 @@ def memory_available() -> int:
     except OSError:
         pass
     return 0
-
-
-def estimated_memory(nodes: int, constraints: int, column_budget: float, column_block: int = 1) -> int:
-    """FreeFem++'s peak memory for a run on `nodes` mesh nodes with `constraints` contact nodes:
-    per node (BYTES_PER_NODE, measured) plus the dense columns of K⁻¹Cᵀ of both bodies (2 dofs per
-    node, at most one column per constraint) that the active-set solver keeps when they all fit in
-    `column_budget` bytes (edp/lib/contact.idp; 0 for Bermúdez–Moreno and for the condensation on
-    the factor, whose L⁻¹PCᵀ is sparse), plus a block of
-    `column_block` of them while it is solved, three times over (right-hand sides, solution and
-    the solver's work space; 121 MB measured for 147 MB so estimated, at 95 614 nodes and 32). The
-    condensation on the factor holds one such block and its sparse L⁻¹PCᵀ: at 1 641 986 nodes the
-    run peaked at 13.40e9 bytes, under the 15.66e9 estimated with a block of 32 (results/scale)."""
-    columns = 16 * nodes * constraints
-    block = 3 * 16 * nodes * min(column_block, constraints)
-    return nodes * BYTES_PER_NODE + (columns if columns <= column_budget else 0) + block

@@ -396,6 +396,16 @@ def test_mesh_values_gmsh_refuses_leave_a_failed_folder_with_the_reason(tmp_path
     assert "must exceed" in (tmp_path / "run.failed" / "run.log").read_text()
 
 
+def test_a_run_that_does_not_fit_the_memory_it_may_take_is_refused_before_its_set_up(tmp_path):
+    """The driver's estimate (edp/lib/contact.idp, requireMemory: the one check of it) against
+    -memoryLimitMB: the paper's scene (24 + 32, 1 714 nodes) needs about 15 MB; 10 MB is refused
+    before a matrix is assembled, naming what to change, and 40 MB runs."""
+    done = run_script(MAIN, ["-N", "20", "-memoryLimitMB", "10", "-out", tmp_path / "small"])
+    assert done.returncode == 3 and "this run needs about" in done.error_line and "1714 nodes" in done.error_line
+    assert "lower mesh.n or mesh.refine" in done.error_line and not (tmp_path / "small" / "params_used.json").exists()
+    assert run_script(MAIN, ["-N", "20", "-memoryLimitMB", "40", "-out", tmp_path / "fits"]).returncode == 0
+
+
 def test_a_mesh_too_large_for_this_machine_is_refused_with_the_estimate(tmp_path):
     with pytest.raises(TooLarge, match=r"about [0-9,]+ nodes.*GiB"):
         run(PAPER, tmp_path / "run", {"body1.mesh.refine": 6, "body2.mesh.refine": 6})
