@@ -37,7 +37,6 @@ from orchestrate.freefem import REPO, run_script
 from orchestrate.manifest import FACTS, STATE_ARRAYS, parse_state, write_state
 from orchestrate.outputs import claim_folder, write_csv, write_text
 from orchestrate.results import Result, load_result
-from orchestrate.scene import RESULT_FREE
 
 NAME = "compare"  # the command, as its folders' made-by.json records it
 
@@ -233,17 +232,18 @@ def nests(coarse, fine) -> bool:
 
 def scene_differences(a: Result, b: Result) -> dict[str, tuple]:
     """Every difference between the problems two runs solved, by name: for two runs of
-    orchestrate, every key of their scenes (scene.toml: the material, loads, boundary conditions,
-    initial data, mesh keys, time grid; the keys that change no result aside); for a run of the
-    driver by hand, every parameter (params_used.json) and the code of its scene file (run.json's
-    sceneCode: its loads, conditions and initial data). The meshes by content either way."""
+    orchestrate, every key of their scenes (scene.toml: the material, loads, boundary conditions
+    by label, initial data, mesh keys, time grid; the title and what a run writes aside); for a run
+    of the driver by hand, every parameter (params_used.json; those of the meshes and the outputs
+    aside) and the code of its scene file (run.json's sceneCode: its loads, conditions and initial
+    data). The meshes by content either way."""
     if "scene.toml" in a.files and "scene.toml" in b.files:
-        values = [flat(tomllib.loads(run.read("scene.toml").decode())) for run in (a, b)]
-        for scene in values:
-            for key in [key for key in scene if key.split(".")[0] == "output" and key.split(".")[1] in RESULT_FREE]:
-                del scene[key]
+        values = [{key: value for key, value in flat(tomllib.loads(run.read("scene.toml").decode())).items()
+                   if key != "title" and not key.startswith("output.")} for run in (a, b)]
     else:
-        skip = {"out", "meshFile1", "meshFile2", "mesh1", "mesh2", "restart", "runIdentity", "solverIdentity"}
+        skip = {"out", "restart", "runIdentity", "solverIdentity", "checkpointEvery", "checkpointSeconds", "outTimes",
+                "outFields", "measureSolves", "memoryLimitMB",
+                *(f"{name}{body}" for name in ("meshFile", "mesh", "geo", "n") for body in (1, 2))}
         values = [{**{"order": 1}, **{name: value for name, value in run.params.items() if name not in skip},
                    "scene file's code (loads, conditions, initial data)": json.loads(run.read(FACTS)).get("sceneCode")}
                   for run in (a, b)]  # order 1: what a run from before the parameter ran with
@@ -259,15 +259,20 @@ def scene_differences(a: Result, b: Result) -> dict[str, tuple]:
 
 
 def flat(table: dict, prefix: str = "") -> dict:
-    """A scene's keys as dotted names (a list of tables by index: body1.boundary.0.label)."""
+    """A scene's keys as dotted names; a body's boundary conditions by their label (and component,
+    where a label carries two), as --set names them: body1.boundary[label=4].fy, whatever their
+    order in the list."""
     found = {}
     for key, value in table.items():
         name = f"{prefix}{key}"
         if isinstance(value, dict):
             found |= flat(value, f"{name}.")
-        elif isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
-            for index, item in enumerate(value):
-                found |= flat(item, f"{name}.{index}.")
+        elif key == "boundary" and isinstance(value, list) and all(isinstance(item, dict) for item in value):
+            labels = [item.get("label") for item in value]
+            for item in value:
+                which = f"label={item.get('label')}" + (f", component={item.get('component')}"
+                                                       if labels.count(item.get("label")) > 1 else "")
+                found |= flat({k: v for k, v in item.items() if k != "label"}, f"{name}[{which}].")
         else:
             found[name] = value
     return found

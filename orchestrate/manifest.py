@@ -74,6 +74,10 @@ class IncompleteRun(RuntimeError):
     disk or a file-size limit cuts files short without FreeFEM noticing)."""
 
 
+class StrayFiles(IncompleteRun):
+    """A folder holding files no run writes (a manifest lists a run's files only)."""
+
+
 def read_json(path: Path) -> dict:
     """A JSON object of a run's file; IncompleteRun for anything else (a reader never meets a
     KeyError or an AttributeError of a file someone changed)."""
@@ -259,7 +263,7 @@ def write_manifest(folder: Path, inputs: dict, verified: dict[str, str] | None =
     names = sorted(path.name for path in Path(folder).iterdir() if path.name != MANIFEST and not IMAGE.fullmatch(path.name))
     stray = [name for name in names if not is_run_file(name) or not regular_file(Path(folder) / name)]
     if stray:
-        raise IncompleteRun(f"{folder}: holds {', '.join(stray)}, which no run writes: a manifest lists a run's files only")
+        raise StrayFiles(f"{folder} holds {', '.join(stray)}, which no run writes (a manifest lists a run's files only)")
     verified = verified or {}
     entries = {name: {"bytes": (Path(folder) / name).stat().st_size,
                       "sha256": verified.get(name) or digest(Path(folder) / name)} for name in names}

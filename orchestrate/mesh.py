@@ -26,6 +26,7 @@ import json
 import math
 import os
 import re
+import resource
 import shutil
 import signal
 import subprocess
@@ -77,8 +78,11 @@ class MeshLimits:
     def resources(self) -> dict:
         free = memory_available() or os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
         nodes = free // BYTES_PER_NODE
-        return {"seconds": math.ceil(self.seconds), "memory": free + GMSH_ADDRESS_SPACE,
-                "fileSize": 2 * nodes * MSH_BYTES_PER_NODE, "nodes": nodes, "free": free}
+        own = 2 * nodes * MSH_BYTES_PER_NODE
+        inherited = resource.getrlimit(resource.RLIMIT_FSIZE)[0]  # a user's ulimit -f binds the mesher too
+        file_size = own if inherited == resource.RLIM_INFINITY else min(own, inherited)
+        return {"seconds": math.ceil(self.seconds), "memory": free + GMSH_ADDRESS_SPACE, "fileSize": file_size,
+                "fileSizeInherited": file_size < own, "nodes": nodes, "free": free}
 
 
 DEFINE_CONSTANT = re.compile(r"DefineConstant\s*\[(.*?)\]\s*;", re.DOTALL)
@@ -405,7 +409,9 @@ def commit_mesh(source: Path, n: int) -> Path:
         command = ["gmsh", "-2", str(write_copies(files, Path(folder))), "-setnumber", "n", str(n), "-o", str(made)]
         done = subprocess.run(command, capture_output=True, text=True, errors="replace")
         if done.returncode != 0 or not made.is_file():
-            raise MeshError(f"gmsh could not mesh {source} with n = {n}: {printable(done.stdout + done.stderr).strip()}")
+            said = printable(done.stdout + done.stderr).strip().splitlines()
+            errors = [line for line in said if "Error" in line] or said[-3:]  # the .geo's own reason, not gmsh's log
+            raise MeshError(f"gmsh could not mesh {source} with n = {n}: {' | '.join(errors)}")
         read_msh(made)
         mesh = made.read_bytes()
     version = subprocess.run(["gmsh", "--version"], capture_output=True, text=True)
@@ -553,6 +559,9 @@ def failure(source: Path, numbers: dict[str, float], refine: int, limits: MeshLi
     if returncode == -signal.SIGXCPU:
         return MeshError(f"{time_limit}: gmsh used that much CPU time without finishing meshing {geo}; raise it or "
                          "coarsen the mesh")
+    if returncode == -signal.SIGXFSZ and resources.get("fileSizeInherited"):
+        return MeshError(f"gmsh's mesh of {geo} grew beyond the file-size limit this process runs under "
+                         f"({resources['fileSize']:,} bytes, ulimit -f): raise it, or coarsen the mesh")
     if returncode == -signal.SIGXFSZ:
         return MeshError(f"gmsh's mesh of {geo} grew beyond {resources['fileSize'] / 1e6:.3g} MB, the file of a mesh "
                          "this machine's free memory could run: coarsen the mesh")

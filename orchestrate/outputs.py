@@ -41,14 +41,21 @@ class OutputError(InputError):
 @contextmanager
 def created(path: Path, mode: str = "w", newline: str | None = None):
     """A handle on a new file that becomes `path` (replacing what is there) once the block ends
-    without an error; nothing is left behind when it raises."""
+    without an error; nothing is left behind when it raises. A file that cannot be written is
+    named as `path` in the error (the temporary name means nothing to a user)."""
     temporary = path.with_name(f".{secrets.token_hex(6)}.writing")  # short: `path`'s own name may be at NAME_MAX
-    descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)
+    try:
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)
+    except OSError as error:
+        raise type(error)(error.errno, error.strerror, str(path)) from None
     try:
         text = {} if "b" in mode else {"encoding": "utf-8", "newline": newline}
         with os.fdopen(descriptor, mode, **text) as handle:
             yield handle
         os.replace(temporary, path)
+    except OSError as error:
+        temporary.unlink(missing_ok=True)
+        raise type(error)(error.errno, error.strerror, str(path)) from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise

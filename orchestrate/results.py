@@ -215,6 +215,8 @@ def load_result(folder: str | Path) -> Result:
                             "unfinished, or changed since; not trusted")
     if (folder / FACTS).is_file():
         return Result(folder, dict(check_files(folder)["fileDigests"]))
+    if not os.path.lexists(folder):
+        raise FileNotFoundError(f"{folder} does not exist: give a run's folder")
     raise FileNotFoundError(f"{folder} is not a run folder (no manifest.json, no run.json)")
 
 

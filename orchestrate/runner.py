@@ -44,7 +44,8 @@ from orchestrate import mesh as meshing
 from orchestrate.freefem import (FILE_PROBLEM, MAIN, REPO, FileProblem, InputError, SolverError, file_problem,
                                  freefem_binary, require_plain_path, run_logged)
 from orchestrate.identity import solver_identity
-from orchestrate.manifest import FACTS, IMAGE, MANIFEST, IncompleteRun, check_files, is_run_entry, write_manifest
+from orchestrate.manifest import (FACTS, IMAGE, MANIFEST, IncompleteRun, StrayFiles, check_files, is_run_entry,
+                                  write_manifest)
 from orchestrate.outputs import drawn_image
 from orchestrate.parameters import driver_name_keys
 from orchestrate.progress import RunProgress, run_progress, wanted
@@ -65,7 +66,7 @@ class RunError(RuntimeError):
 
 
 class Interrupted(RunError):
-    pass
+    exit_code = 130  # the command's, as for any process ended by Ctrl-C
 
 
 TooLarge = meshing.TooLarge  # a run whose meshes or memory would not fit this machine, refused before it starts
@@ -151,11 +152,11 @@ def refuse_existing(out: Path, force: bool) -> None:
         return
     if out.is_symlink():
         raise RunError(f"{out} is a symbolic link: give the folder itself (a run never deletes through a link)")
+    if not is_run_folder(out):
+        raise RunError(f"{out} exists and is not a run folder (no manifest.json, run.json or summary.json): choose another "
+                       "--out (--force replaces only the folders of runs)")
     if not force:
         raise RunError(f"{out} exists: choose another --out or pass --force to replace it")
-    if not is_run_folder(out):
-        raise RunError(f"{out} exists and is not a run folder (no manifest.json, run.json or summary.json): --force replaces only "
-                       "the folders of runs; choose another --out")
     foreign = [name for name in os.listdir(out) if not is_run_entry(name)
                or IMAGE.fullmatch(name) and not drawn_image(out / name)]  # an image by name only: the user's
     if foreign:
@@ -270,42 +271,95 @@ def steps_done(partial: Path) -> int:
         return 0
 
 
-def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> bool:
-    """Is `<out>.partial` to be continued from its checkpoint? Yes when asked (resume) and it holds
-    a checkpoint of a run of these inputs. Computed steps are never discarded unasked: a folder
-    holding any (with or without a checkpoint) that cannot be continued is refused, saying why and
-    what to do, unless force says to start over; one holding none (a run stopped while meshing) is
-    made anew."""
+# What becomes of a `<out>.partial` folder a run finds (resumable): made anew, continued from its
+# newest checkpoint, or finished (its driver ran to the end; what is left is Python's: the files
+# read back, images, manifest).
+FRESH, RESTART, FINISHED = "fresh", "restart", "finished"
+
+
+def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> str:
+    """What to do with `<out>.partial` (FRESH, RESTART or FINISHED). Continued when asked (resume)
+    and it holds a checkpoint of a run of these inputs, or a run of these inputs its driver
+    finished. Computed steps are never discarded unasked: a folder holding any that cannot be
+    continued is refused, saying why and what to do, unless force says to start over; one holding
+    none (a run stopped while meshing) is made anew."""
     found = sealed_checkpoints(partial)
     done = steps_done(partial)
-    if not found and not done:
-        return False
-    try:
-        same = json.loads((partial / "inputs.json").read_text())["digest"] == inputs["digest"]
-    except (OSError, ValueError, KeyError):
-        same = False
-    same = same and bool(found) and {identity for _, identity in found} == {inputs["digest"]}
-    if force and not (resume and same):
-        return False
+    finished = driver_finished(partial)
+    if not found and not done and not finished:
+        return FRESH
+    recorded = recorded_inputs(partial)
+    same = recorded.get("digest") == inputs["digest"]
+    continued = same and (finished or bool(found) and {identity for _, identity in found} == {inputs["digest"]})
+    if force and not (resume and continued):
+        return FRESH
     kept = f"its files stay there: --force to start over (they are then deleted), or move {partial.name} away to keep them"
+    foreign = [name for name in sorted(os.listdir(partial)) if not (is_run_entry(name) or name in WORK_FILES)]
+    if foreign:
+        raise RunError(f"{partial} holds {', '.join(foreign[:5])}, which no run writes: move it away, then --resume "
+                       f"again; {kept}")
+    if not same:
+        raise RunError(f"{partial} holds a run of other inputs ({differing_inputs(recorded, inputs)}): it cannot be "
+                       f"continued with this scene; {kept}")
+    if finished:
+        if not resume:
+            raise RunError(f"{partial} holds a run whose solver finished and whose files were not published: --resume "
+                           f"to read them back and publish them; {kept}")
+        return FINISHED
     if not found:
-        raise RunError(f"{partial} holds an interrupted run of {done} computed steps and no checkpoint to continue from "
-                       f"(output.checkpointEvery sets how often a run writes one); {kept}")
+        damaged = [name for name in CHECKPOINTS if (partial / name).exists()]
+        why = (f"its checkpoints ({', '.join(damaged)}) are cut short or damaged" if damaged else
+               "no checkpoint to continue from (output.checkpointEvery sets how often a run writes one; none is written "
+               "within a start in substeps, time.startSteps)")
+        raise RunError(f"{partial} holds an interrupted run of {done} computed steps and {why}; {kept}")
     step = max(step for step, _ in found)
     if not resume:
         raise RunError(f"{partial} holds an interrupted run with a checkpoint at step {step}: --resume to continue it; "
                        f"{kept}")
-    if not same:
-        raise RunError(f"{partial} holds a checkpoint of a run of other inputs (another scene, or another version of the "
-                       f"solver): it cannot be continued with this one; {kept}")
-    return True
+    if not continued:
+        raise RunError(f"{partial} holds a checkpoint of a run of other inputs: it cannot be continued with this one; "
+                       f"{kept}")
+    return RESTART
+
+
+def driver_finished(folder: Path) -> bool:
+    """Whether the driver finished the run in `folder` (run.json, its last act, says finished: true)."""
+    try:
+        return json.loads((folder / FACTS).read_bytes()).get("finished") is True
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def recorded_inputs(partial: Path) -> dict:
+    """The inputs a partial folder was made from (inputs.json), or {} without a readable record."""
+    try:
+        recorded = json.loads((partial / "inputs.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return recorded if isinstance(recorded, dict) else {}
+
+
+INPUT_PARTS = {"scene": "the scene", "freefemScene": "the scene as the driver reads it",
+               "solver": "the solver's code", "meshes": "the meshes"}
+
+
+def differing_inputs(recorded: dict, inputs: dict) -> str:
+    """Which parts of a run's inputs differ from a folder's record of them, in words."""
+    if not recorded:
+        return "it holds no readable inputs.json, the record of the inputs it was made from"
+    parts = [words for part, words in INPUT_PARTS.items() if recorded.get(part) != inputs.get(part)]
+    return "its " + ", ".join(parts or ["inputs"]) + " differ"
 
 
 def refuse_failed(failed: Path, force: bool) -> None:
-    """A failed run beside <out> is kept unless force: a new run would replace it."""
+    """A failed run beside <out> that computed steps is kept unless force: a new run would replace
+    it (one refused before its first step, by its input or its meshes, is replaced: nothing of it
+    is lost but its run.log)."""
     if force or failed.is_symlink() or not os.path.lexists(failed):
         return
     refuse_foreign(failed)
+    if not steps_done(failed) and not sealed_checkpoints(failed):
+        return
     raise RunError(f"{failed} holds a run that failed ({failure_of(failed)}); a failed run cannot be continued, and a new "
                    f"run into {failed.name.removesuffix('.failed')} would replace it: move it away to keep it, or pass "
                    "--force to replace it")
@@ -341,12 +395,13 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     failed = out.with_name(out.name + ".failed")
     refuse_failed(failed, force)
     started = time.perf_counter()
-    restart = False
+    restart = finished = False
 
     def keep(partial: Path) -> bool:
-        nonlocal restart
-        restart = resumable(partial, inputs, resume, force)
-        return restart
+        nonlocal restart, finished
+        state = resumable(partial, inputs, resume, force)
+        restart, finished = state == RESTART, state == FINISHED
+        return state != FRESH
 
     steps = None if scene.time.N == "auto" else scene.time.N  # "auto": known once the pilots ran
     with (claimed(out, keep) as partial,
@@ -360,10 +415,10 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():
-                planned, plan = resolve_steps(scene, partial, mesh_cache, restart, bar, trust_geo)
+                planned, plan = resolve_steps(scene, partial, mesh_cache, restart or finished, bar, trust_geo)
                 summary, verified = build(planned, partial, bar, mesh_cache,
                                           ("-runIdentity", inputs["digest"], "-solverIdentity", inputs["solver"],
-                                           *solver_flags), restart, trust_geo)
+                                           *solver_flags), restart, trust_geo, finished)
                 if plan:
                     summary["timeSteps"] = plan
                 summary["wallSeconds"] = round(time.perf_counter() - started, 3)
@@ -374,25 +429,45 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         except (KeyboardInterrupt, Interrupted) as error:
             meshing.stop_meshing()
             reason = str(error) or "Ctrl-C"
-            (partial / "INTERRUPTED").write_text(f"This run was {reason}; its files are incomplete.\n")
-            raise Interrupted(f"run {reason}; the incomplete files are in {partial}") from None
+            noted(partial / "INTERRUPTED", f"This run was {reason}; its files are incomplete.\n")
+            raise Interrupted(f"run {reason}; the incomplete files are in {partial}: --resume continues it from its "
+                              "last checkpoint") from None
+        except StrayFiles as error:  # a file dropped into the folder while it ran: the run itself is whole
+            keep_interrupted(partial, str(error))
+            raise RunError(f"{error}: move it away, then --resume to publish the run (its solver finished)") from None
         except (SolverError, meshing.MeshError, InputError, TooLarge, IncompleteRun) as error:
-            if restart and not (isinstance(error, SolverError) and error.returncode not in KEPT_FAILURES):
+            if isinstance(error, SolverError) and error.returncode == FILE_PROBLEM:
+                keep_interrupted(partial, str(error))  # nothing wrong with the run: --resume once there is space
+                raise FileProblem(f"{error}. The run's files stay in {partial}: free space, then --resume") from None
+            if (restart or finished) and not (isinstance(error, SolverError) and error.returncode not in KEPT_FAILURES):
                 keep_interrupted(partial, str(error))  # it did not continue: the interrupted run is as it was
-                raise RunError(f"{partial} could not be continued from its checkpoint at step {checkpoint_step(partial)}: "
-                               f"{error}. Its files stay there: --resume again once that is mended, --force to start "
-                               f"over (they are then deleted), or move {partial.name} away to keep them") from None
+                where = f"from its checkpoint at step {checkpoint_step(partial)}" if restart else "(its solver had finished)"
+                raise RunError(f"{partial} could not be continued {where}: {error}. Its files stay there: --resume again "
+                               f"once that is mended, --force to start over (they are then deleted), or move "
+                               f"{partial.name} away to keep them") from None
             fail_into(partial, failed, str(error))
+            if isinstance(error, SolverError):  # where its files went, and the driver's message without FreeFEM's trace
+                raise SolverError(error.returncode, f"{error.message} (the run's files are in {failed})",
+                                  without_trace(error.log_tail)) from None
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
-            raise FileProblem(f"cannot write the run: {file_problem(error)}. The files written so far are in "
-                              f"{partial}") from None
+            keep_interrupted(partial, file_problem(error))
+            raise FileProblem(f"cannot write the run: {file_problem(error)}. The files written so far stay in "
+                              f"{partial}: free space, then --resume") from None
         except Exception as error:  # a fault of this program: the folder still says what happened
             fail_into(partial, failed, f"{type(error).__name__}: {error}")
             raise
     from orchestrate.results import Result
 
     return Result(out)  # built and checked above (build, write_manifest): not read a second time
+
+
+# FreeFEM's call trace after a failure (bin/ff strips it the same way): its lines, not the driver's.
+TRACE = re.compile(r" *current line = .*| call .* at  line [0-9]+|exit\([0-9]+\)| err code [0-9]+ ,  mpirank .*")
+
+
+def without_trace(text: str) -> str:
+    return "\n".join(line for line in text.splitlines() if not TRACE.fullmatch(line))
 
 
 # The driver's exit codes after which a resumed run is still the interrupted one (docs/usage.md,
@@ -572,24 +647,25 @@ def solve(scene: Scene, folder: Path, bar: RunProgress, solver_flags: tuple, res
 
 
 def build(scene: Scene, folder: Path, bar: RunProgress, mesh_cache: Path | None = None, solver_flags: tuple = (),
-          restart: bool = False, trust_geo: bool = False) -> tuple[dict, dict]:
-    """Everything of a run inside `folder` (continued from its checkpoint with `restart`);
-    returns the summary (without the total wall time) and the SHA-256 of the driver's files, each
-    checked against its content (manifest.check_files)."""
-    timing = {}
-    (folder / "scene.toml").write_text(scene.to_toml())
-    clock = time.perf_counter()
-    meshes_of(scene, folder, mesh_cache, bar, trust_geo)
-    timing["meshing"] = time.perf_counter() - clock
-    (folder / "scene.idp").write_text(to_freefem_scene(scene))
-
-    clock = time.perf_counter()
-    done = solve(scene, folder, bar, solver_flags, restart)
-    timing["solver"] = time.perf_counter() - clock
-    if done.returncode != 0:
-        tail = "\n".join(done.stdout.splitlines()[-15:])
-        said = done.error_line or f"it left no message: {folder / 'run.log'} could not hold one (a full disk?)"
-        raise SolverError(done.returncode, python_spelling(said), tail)
+          restart: bool = False, trust_geo: bool = False, finished: bool = False) -> tuple[dict, dict]:
+    """Everything of a run inside `folder` (continued from its checkpoint with `restart`; with
+    `finished`, a run whose driver had finished: only read back); returns the summary (without the
+    total wall time) and the SHA-256 of the driver's files, each checked against its content
+    (manifest.check_files)."""
+    timing = {"meshing": 0.0, "solver": 0.0}
+    if not finished:
+        (folder / "scene.toml").write_text(scene.to_toml())
+        clock = time.perf_counter()
+        meshes_of(scene, folder, mesh_cache, bar, trust_geo)
+        timing["meshing"] = time.perf_counter() - clock
+        (folder / "scene.idp").write_text(to_freefem_scene(scene))
+        clock = time.perf_counter()
+        done = solve(scene, folder, bar, solver_flags, restart)
+        timing["solver"] = time.perf_counter() - clock
+        if done.returncode != 0:
+            tail = "\n".join(done.stdout.splitlines()[-15:])
+            said = done.error_line or f"it left no message: {folder / 'run.log'} could not hold one (a full disk?)"
+            raise SolverError(done.returncode, python_spelling(said), tail)
     bar.phase("reading the files back")
     from orchestrate.results import Result
 

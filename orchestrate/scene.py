@@ -153,7 +153,7 @@ class Mesh(Table):
               "repository's meshes/...), meshed in a sandbox (README.md, Your own files); or give rectangle")
     rectangle = Key(Optional(TupleOf(REAL, REAL, REAL, REAL)), None,
                     "[x0, x1, y0, y1]: meshes/rectangle.geo, labels 1 bottom, 2 right, 3 top, 4 left")
-    n = Key(Integer(ge=1, le=4096), description="the mesh size parameter of the .geo (elements per side or per unit "
+    n = Key(Integer(**PARAMETERS["n1"].bounds), description="the mesh size parameter of the .geo (elements per side or per unit "
                                                 "length: its header says)")
     structured = Key(Optional(Boolean()), None, "a structured (transfinite) mesh, where the .geo offers one")
     refine = Key(Integer(ge=0, le=6), 0, "times every triangle is split in four (nested meshes)")

@@ -18,6 +18,7 @@ sweep holds the value its run ran with (blank for a run that never started).
 from __future__ import annotations
 
 import csv
+import fcntl
 import hashlib
 import itertools
 import json
@@ -26,6 +27,7 @@ import math
 import os
 import re
 import tomllib
+from contextlib import contextmanager
 from pathlib import Path
 
 from orchestrate.arguments import split_assignment
@@ -36,7 +38,7 @@ from orchestrate.outputs import claim_growing_folder, write_csv
 from orchestrate.parameters import scene_value
 from orchestrate.progress import counter, wanted
 from orchestrate.results import Result, load_result
-from orchestrate.runner import SUFFIXES, inputs_of, run, signals_as_interrupt
+from orchestrate.runner import SUFFIXES, RunError, inputs_of, run, signals_as_interrupt
 from orchestrate.scene import Scene, SceneError, apply_overrides, parse_value, read_toml, resolve_keys
 from orchestrate.schema import shown
 
@@ -324,17 +326,40 @@ def sweep(scene: str | Path, grid: dict[str, list], out: str | Path, base: dict 
     progress: a bar of the runs, True, False or "auto" (where one can be seen: progress.py); yes:
     run more than MAX_UNASKED combinations; trust_geo: as for `run`."""
     visible = wanted(progress)
+    if not 1 <= workers <= MAX_WORKERS:
+        raise InputError(f"workers = {shown(workers)}: give 1 to {MAX_WORKERS} (each worker is a process that runs "
+                         "FreeFem++; more than the machine's cores only queue)")
 
     out = Path(out).resolve()
     rows, jobs = plan(scene, grid, out, base, yes)
     claim_growing_folder(out, "sweep", ["sweep.csv"], [row["folder"] for row in rows], SUFFIXES)
-    earlier_keys, earlier = earlier_table(out / "sweep.csv")
-    try:
-        run_jobs(jobs, workers, scheduler, visible, trust_geo)
-    finally:
-        keys = [*earlier_keys, *(key for key in grid if key not in earlier_keys)]
-        write_table(out / "sweep.csv", with_values_run(out, merged(earlier, rows), keys), keys)
+    with sweep_lock(out):
+        earlier_keys, earlier = earlier_table(out / "sweep.csv")
+        try:
+            run_jobs(jobs, min(workers, len(jobs)), scheduler, visible, trust_geo)
+        finally:
+            keys = [*earlier_keys, *(key for key in grid if key not in earlier_keys)]
+            write_table(out / "sweep.csv", with_values_run(out, merged(earlier, rows), keys), keys)
     return rows
+
+
+MAX_WORKERS = 256  # a LocalCluster of more processes than this takes minutes to start on any machine
+
+
+@contextmanager
+def sweep_lock(folder: Path):
+    """The sweep folder held by one sweep at a time (an exclusive lock on it while it runs): two
+    sweeps into one folder would each write sweep.csv from what it read before the other wrote."""
+    handle = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise RunError(f"another sweep is running in {folder}: wait for it to end, then run this one (it adds its "
+                           "rows to the same sweep.csv), or choose another --out") from None
+        yield
+    finally:
+        os.close(handle)
 
 
 def read_table(path: Path) -> tuple[list[str], list[dict]]:

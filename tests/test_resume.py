@@ -8,6 +8,7 @@ failed run beside the output folder is kept unless --force; by default a run tha
 a few seconds has checkpoints (a twentieth of its steps apart)."""
 import json
 import random
+import resource
 import signal
 import subprocess
 import sys
@@ -18,8 +19,8 @@ import pytest
 
 from conftest import cli_args, resealed, rows, same_results
 from orchestrate import run
-from orchestrate.freefem import REPO
-from orchestrate.runner import RunError, checkpoint_step, sealed_checkpoints
+from orchestrate.freefem import FILE_PROBLEM, REPO, FileProblem
+from orchestrate.runner import CHECKPOINTS, RunError, checkpoint_step, sealed_checkpoint, sealed_checkpoints
 
 pytestmark = pytest.mark.runs
 
@@ -30,8 +31,8 @@ BASE = {"body1.mesh.n": 6, "body2.mesh.n": 8, "time.N": STEPS, "output.images": 
 
 
 def size_view(path: Path) -> Path:
-    """A gmsh view of element sizes over both paper bodies (0.6 at every corner of a large square)."""
-    path.write_text('View "sizes" {\nST(-1,-7,0,7,-7,0,7,7,0){0.6,0.6,0.6};\nST(-1,-7,0,7,7,0,-1,7,0){0.6,0.6,0.6};\n};\n')
+    """A gmsh view of element sizes over the paper's body 1, (0, 6)² (0.6 at every corner of a square around it)."""
+    path.write_text('View "sizes" {\nST(-1,-1,0,7,-1,0,7,7,0){0.6,0.6,0.6};\nST(-1,-1,0,7,7,0,-1,7,0){0.6,0.6,0.6};\n};\n')
     return path
 
 
@@ -165,3 +166,80 @@ def test_by_default_a_run_of_several_seconds_has_checkpoints_a_twentieth_of_its_
     if len(steps) == 2:
         assert abs(steps[0] - steps[1]) >= 100
     assert run(PAPER, out, overrides, resume=True).folder == out
+
+
+# --- found by an adversarial pass ----------------------------------------------------------------
+
+def test_a_run_whose_solver_finished_but_whose_files_were_not_published_is_published_by_resume(tmp_path, monkeypatch):
+    """The disk fills while the manifest is written, after the driver's last step (it removes its
+    checkpoints then): the folder stays <out>.partial, and --resume publishes it without solving
+    again; the files are those of the same run done at once."""
+    from orchestrate import runner as runner_module
+
+    real = runner_module.write_manifest
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device", str(args[0] / "manifest.json"))
+    monkeypatch.setattr(runner_module, "write_manifest", full_disk)
+    out = tmp_path / "run"
+    with pytest.raises(FileProblem, match="manifest.json: No space left on device.*--resume"):
+        run(PAPER, out, BASE)
+    partial = tmp_path / "run.partial"
+    assert rows(partial) == STEPS and not sealed_checkpoints(partial) and not out.exists()
+    monkeypatch.setattr(runner_module, "write_manifest", real)
+    with pytest.raises(RunError, match="solver finished and whose files were not published: --resume"):
+        run(PAPER, out, BASE)
+    log = (partial / "run.log").read_text()
+    resumed = run(PAPER, out, BASE, resume=True)
+    assert (out / "run.log").read_text().startswith(log)  # no second solve appended to the log
+    same_results(run(PAPER, tmp_path / "fresh", BASE).folder, resumed.folder)
+
+
+def test_a_file_dropped_into_a_running_folder_leaves_it_resumable_once_it_is_moved(tmp_path):
+    out = tmp_path / "run"
+    process = subprocess.Popen(command(out, BASE), cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
+    partial = tmp_path / "run.partial"
+    while process.poll() is None and rows(partial) < 10:
+        time.sleep(0.002)
+    (partial / "notes.txt").write_text("the user's")
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 1 and "notes.txt, which no run writes" in stderr and "--resume" in stderr
+    assert rows(partial) == STEPS and not (tmp_path / "run.failed").exists()
+    with pytest.raises(RunError, match="holds notes.txt, which no run writes: move it away"):
+        run(PAPER, out, BASE, resume=True)
+    (partial / "notes.txt").rename(tmp_path / "notes.txt")
+    same_results(run(PAPER, tmp_path / "fresh", BASE).folder, run(PAPER, out, BASE, resume=True).folder)
+
+
+def test_a_run_stopped_by_a_full_disk_stays_resumable_and_continues_once_there_is_space(tmp_path):
+    """A file-size limit stands for the full disk: the driver stops naming the file (exit 74);
+    the folder stays <out>.partial with its checkpoints, and --resume without the limit gives the
+    run done at once."""
+    overrides = {**BASE, "output.checkpointEvery": 50, "time.N": 2000}
+    out = tmp_path / "run"
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (400_000, 400_000))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    done = subprocess.run(command(out, overrides), cwd=REPO, capture_output=True, text=True, preexec_fn=limited)
+    assert done.returncode == FILE_PROBLEM and "--resume" in done.stderr, done.stderr
+    partial = tmp_path / "run.partial"
+    assert not (tmp_path / "run.failed").exists() and checkpoint_step(partial) > 0
+    resumed = subprocess.run([*command(out, overrides), "--resume"], cwd=REPO, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr
+    same_results(run(PAPER, tmp_path / "fresh", overrides).folder, out)
+
+
+def test_a_link_planted_by_a_checkpoint_s_name_is_never_written_through(tmp_path):
+    out = tmp_path / "run"
+    killed(out, BASE, 300)
+    partial = tmp_path / "run.partial"
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the user's")
+    steps = {name: (sealed_checkpoint(partial / name) or (-1,))[0] for name in CHECKPOINTS}
+    written_next = min(steps, key=steps.get)  # the resumed run writes its next checkpoint over the older name
+    (partial / written_next).unlink(missing_ok=True)
+    (partial / written_next).symlink_to(victim)
+    run(PAPER, out, BASE, resume=True)
+    assert victim.read_text() == "the user's"

@@ -348,3 +348,21 @@ def test_a_sweep_row_naming_a_folder_its_record_does_not_list_is_not_read(glued,
     first_folder = history_runs(copy)[0][1].name
     (copy / "sweep.csv").write_text(text.replace(first_folder, "../elsewhere", 1))
     assert [folder.name for _, folder in history_runs(copy)] == [folder.name for _, folder in history_runs(out)][1:]
+
+
+def test_a_second_sweep_into_a_folder_a_sweep_is_running_in_is_refused_and_the_table_kept(tmp_path):
+    """Found by an adversarial pass: two sweeps at once into one folder each wrote sweep.csv from
+    what it read before the other wrote, and one table was lost. The folder is held by one sweep
+    at a time; workers are bounded (100 000 took minutes to start)."""
+    from orchestrate.runner import RunError
+    from orchestrate.sweep import sweep_lock
+
+    out = tmp_path / "sweep"
+    sweep(SCENE, {"glue.gammaNu": [1.0]}, out, BASE, workers=1)
+    table = (out / "sweep.csv").read_text()
+    with sweep_lock(out):  # as a sweep holds it while it runs
+        with pytest.raises(RunError, match="another sweep is running in .*: wait for it to end"):
+            sweep(SCENE, {"glue.gammaNu": [0.5]}, out, BASE, workers=1)
+    assert (out / "sweep.csv").read_text() == table
+    with pytest.raises(InputError, match="workers = 100000: give 1 to 256"):
+        sweep(SCENE, {"glue.gammaNu": [0.5]}, out, BASE, workers=100_000)

@@ -85,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {file_problem(error) if error.errno else error}", file=sys.stderr)
         return FILE_PROBLEM if error.errno else 2
     except OSError as error:
+        if error.errno is None and error.filename is None:  # no file's: a connection refused or timed out, say
+            print(f"error: {error}", file=sys.stderr)
+            return 1
         print(f"error: {file_problem(error)}", file=sys.stderr)
         return FILE_PROBLEM
     except (InputError, MeshError) as error:
@@ -92,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except RuntimeError as error:
         print(f"error: {error}", file=sys.stderr)
-        return 1
+        return getattr(error, "exit_code", 1)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

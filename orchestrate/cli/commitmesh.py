@@ -3,7 +3,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from orchestrate.freefem import InputError
 from orchestrate.mesh import commit_mesh
+from orchestrate.parameters import PARAMETERS
 from orchestrate.scene import geo_path
 
 NAME, HELP = ("commit-mesh", "make a committed mesh of meshes/ again (<geo>-n<n>.msh, which a body given only by n "
@@ -17,5 +19,8 @@ def add_arguments(parser) -> None:
 
 
 def command(options) -> int:
+    n = PARAMETERS["n1"]  # the range a body's n takes in a scene (mesh.n) and on the driver's command line
+    if not n.bounds.get("ge", -float("inf")) <= options.n <= n.bounds.get("le", float("inf")):
+        raise InputError(f"--n {options.n}: give an integer in {n.range}, as a scene's mesh.n")
     print(f"wrote {commit_mesh(geo_path(options.geo, Path.cwd()), options.n)} and its record")
     return 0
