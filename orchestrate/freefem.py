@@ -67,9 +67,10 @@ FILE_ADVICE = {
 }
 
 
-def file_problem(error: OSError) -> str:
-    """One line for an OSError: the file (both, for a rename), what went wrong and what to do."""
-    names = " -> ".join(str(name) for name in (error.filename, error.filename2) if name is not None) or "a file"
+def file_problem(error: OSError, where: str = "a file") -> str:
+    """One line for an OSError: the file (both, for a rename; `where` when the error names none),
+    what went wrong and what to do."""
+    names = " -> ".join(str(name) for name in (error.filename, error.filename2) if name is not None) or where
     advice = FILE_ADVICE.get(error.errno, "check the path and the disk")
     return f"{names}: {error.strerror or error}; {advice}"
 

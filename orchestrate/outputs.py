@@ -24,6 +24,7 @@ import json
 import os
 import secrets
 import stat
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -141,9 +142,25 @@ def drawn_image(path: Path) -> bool:
     return path.suffix.lower() in SIGNATURES and holds_mark(path, MARK)
 
 
+def require_writable(folder: Path) -> None:
+    """A folder a command is to write in, or the folder it would be made in, that cannot be written
+    (a read-only file system, no permission) is said now, before the command's work (a benchmark's
+    runs take minutes), as the OSError a write would meet."""
+    existing = next((path for path in (folder, *folder.parents) if os.path.lexists(path)), None)
+    if existing is None or not existing.is_dir():
+        return  # a file on the way: the command's own check names it
+    try:  # a probe, not os.access: root passes access() where a read-only or virtual file system refuses
+        handle, probe = tempfile.mkstemp(prefix=".orchestrate-probe-", dir=existing)
+    except OSError as error:
+        raise OSError(error.errno, f"{error.strerror}: it cannot be written", str(existing)) from None
+    os.close(handle)
+    os.unlink(probe)
+
+
 def refuse_folder(folder: Path, command: str, force: bool, option: str = "--out") -> None:
     """Raises unless `command` may write into `folder`: a new or empty folder, or with `force` one
-    whose record is this command's and which holds nothing else."""
+    whose record is this command's and which holds nothing else; and a folder it can write."""
+    require_writable(folder)
     present = entries(folder, option)
     if not present:
         return
@@ -174,6 +191,7 @@ def claim_growing_folder(folder: Path, command: str, files, folders, work_suffix
     only what its record lists (with the work folders beside its run folders, `work_suffixes`)
     and images this package drew; recorded with the union of the old and new names before anything
     is written."""
+    require_writable(folder)
     present = entries(folder, option)
     old = read_record(folder) if present else {"command": command, "files": [], "folders": []}
     if old is None or old["command"] != command:

@@ -50,6 +50,7 @@ from orchestrate.outputs import drawn_image
 from orchestrate.parameters import driver_name_keys
 from orchestrate.progress import RunProgress, run_progress, wanted
 from orchestrate.scene import RESULT_FREE, Scene, SceneError, to_freefem_scene
+from orchestrate.schema import shown
 from orchestrate.steps import StepsError, choose_steps
 
 if TYPE_CHECKING:
@@ -385,6 +386,7 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     to time meshing); solver_flags: extra driver flags that change no result (e.g. -measureSolves 10);
     trust_geo: mesh a user's .geo even where no Landlock confines gmsh (orchestrate/mesh.py)."""
     wanted(progress)  # a wrong value is said before anything runs
+    require_result_free(solver_flags)
     scene_path = None if isinstance(scene, Scene) else Path(scene)
     scene = Scene.load(scene_path, overrides) if scene_path else scene.with_overrides(overrides or {})
     require_plain_path(REPO, "the repository's location")
@@ -451,9 +453,10 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
                                   without_trace(error.log_tail)) from None
             raise
         except OSError as error:  # a full disk, a file-size limit, a folder that cannot be written
-            keep_interrupted(partial, file_problem(error))
-            raise FileProblem(f"cannot write the run: {file_problem(error)}. The files written so far stay in "
-                              f"{partial}: free space, then --resume") from None
+            said = file_problem(error, f"a file in {partial}")
+            keep_interrupted(partial, said)
+            raise FileProblem(f"cannot write the run: {said}. The files written so far stay in {partial}: free space, "
+                              "then --resume") from None
         except Exception as error:  # a fault of this program: the folder still says what happened
             fail_into(partial, failed, f"{type(error).__name__}: {error}")
             raise
@@ -468,6 +471,20 @@ TRACE = re.compile(r" *current line = .*| call .* at  line [0-9]+|exit\([0-9]+\)
 
 def without_trace(text: str) -> str:
     return "\n".join(line for line in text.splitlines() if not TRACE.fullmatch(line))
+
+
+# The driver's flags a caller may add to a run (solver_flags): those that change no result (the
+# benchmark's measurements, the memory a run may take), so that a run folder never holds files
+# its scene and its inputs' digest do not give.
+RESULT_FREE_FLAGS = ("-measureSolves", "-memoryLimitMB")
+
+
+def require_result_free(flags: tuple) -> None:
+    names = list(flags[::2])
+    wrong = [name for name in names if name not in RESULT_FREE_FLAGS]
+    if wrong or len(flags) % 2:
+        raise InputError(f"solver_flags {shown(list(flags))}: give pairs of a flag and its value, the flags "
+                         f"{', '.join(RESULT_FREE_FLAGS)} only (any other changes the run: give it in the scene)")
 
 
 # The driver's exit codes after which a resumed run is still the interrupted one (docs/usage.md,

@@ -3,6 +3,7 @@ naming the file and what to do, with its own exit code (74, FILE_PROBLEM), never
 another failure. A file-size limit stands for a full disk (writes fail part-way; FreeFEM's
 streams report nothing), a path through a file for a missing or unwritable folder."""
 import resource
+from pathlib import Path
 import signal
 import subprocess
 import sys
@@ -80,3 +81,30 @@ def test_a_run_into_a_folder_under_a_file_is_one_line_with_its_own_exit_code(tmp
     done = subprocess.run(command(tmp_path / "plain" / "run", COARSE), cwd=REPO, capture_output=True, text=True)
     assert done.returncode == FILE_PROBLEM and "Traceback" not in done.stderr
     assert done.stderr.count("\n") == 1 and "not a folder" in done.stderr, done.stderr
+
+
+# --- found by an adversarial pass ----------------------------------------------------------------
+
+@pytest.mark.unit
+def test_a_command_s_folder_that_cannot_be_written_is_said_before_its_work(tmp_path):
+    """bench ran its minutes of measurements before it found its --out on a read-only file
+    system; every command that takes an --out folder now says so first (as root, /proc stands for
+    a folder no one may write)."""
+    from orchestrate.outputs import refuse_folder
+
+    with pytest.raises(OSError) as error:
+        refuse_folder(Path("/proc/no-such/out"), "bench", False)
+    assert error.value.filename == "/proc" and "it cannot be written" in error.value.strerror
+
+
+@pytest.mark.unit
+def test_an_image_too_large_to_draw_and_flags_that_change_a_run_are_refused_before_anything_runs(tmp_path, capsys):
+    from orchestrate.cli import main
+    from orchestrate.freefem import InputError
+    from orchestrate.runner import run
+
+    assert main(["render", str(tmp_path), "--size", "100,100", "--dpi", "2400"]) == 2
+    assert "megapixels, more than the 300 an image can be drawn with here" in capsys.readouterr().err
+    with pytest.raises(InputError, match="solver_flags .*-measureSolves, -memoryLimitMB only"):
+        run(PAPER, tmp_path / "run", COARSE, solver_flags=("-gammaNu", "5"))
+    assert not (tmp_path / "run.partial").exists()

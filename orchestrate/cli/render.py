@@ -28,6 +28,10 @@ def number_pair(text: str) -> tuple[float, float]:
     return values
 
 
+# The most pixels an image may hold: matplotlib's Agg needs about 4 bytes each, twice (300 MP: 2.4 GB).
+MAX_PIXELS = 300e6
+
+
 def figure_size(text: str) -> tuple[float, float]:
     """--size W,H: two positive numbers (inches)."""
     import argparse
@@ -115,6 +119,10 @@ def command(options) -> int:
             ranges = choice
     if given and ranges == "per-body":
         raise InputError("--range per-body and --range FIELD=LOW,HIGH: give one kind")
+    if options.size and options.dpi and options.size[0] * options.size[1] * options.dpi ** 2 > MAX_PIXELS:
+        raise InputError(f"--size {options.size[0]:g},{options.size[1]:g} at --dpi {options.dpi}: "
+                         f"{options.size[0] * options.size[1] * options.dpi ** 2 / 1e6:,.0f} megapixels, more than the "
+                         f"{MAX_PIXELS / 1e6:,.0f} an image can be drawn with here: lower either")
     if options.out:
         refuse_folder(Path(options.out), NAME, options.force)  # before the run folder is read
     result = load_result(options.folder)
