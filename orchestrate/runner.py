@@ -383,7 +383,8 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
     resume: continue the interrupted run in `<out>.partial` from its newest checkpoint when it has
     the same inputs; progress: a bar on stderr or in a notebook, True, False or "auto" (where one
     can be seen: orchestrate/progress.py); mesh_cache: another mesh cache folder (the benchmark's,
-    to time meshing); solver_flags: extra driver flags that change no result (e.g. -measureSolves 10);
+    to time meshing); solver_flags: extra driver flags that change no result (RESULT_FREE_FLAGS, e.g.
+    -measureSolves 10; any other is refused);
     trust_geo: mesh a user's .geo even where no Landlock confines gmsh (orchestrate/mesh.py)."""
     wanted(progress)  # a wrong value is said before anything runs
     require_result_free(solver_flags)
