@@ -249,15 +249,16 @@ def limited_file_size(ignore_sigxfsz: bool):
 
 
 def test_a_file_size_limit_stops_the_run_with_a_clear_message_and_keeps_what_was_written(tmp_path):
-    # Python ignores SIGXFSZ; the runner gives FreeFem++ the default action back, so the limit
-    # stops it instead of letting its writes fail silently.
+    # Python ignores SIGXFSZ, and so does FreeFem++ under the runner: the write past the limit
+    # fails, the driver's check of it stops the run naming the file (exit 74), and the folder
+    # stays <out>.partial, to be continued with --resume once the limit is raised.
     out = tmp_path / "run"
     done = subprocess.run([sys.executable, "-m", "orchestrate", "run", str(PAPER_TOML), "--set", "time.N=1000",
                            "--set", "time.T=25", "--set", "output.images=false", "--out", str(out)],
                           cwd=REPO, capture_output=True, text=True, preexec_fn=limited_file_size(True))
-    assert done.returncode != 0 and "file-size limit" in done.stderr, done.stderr
+    assert done.returncode == FILE_PROBLEM and "file-size limit" in done.stderr and "--resume" in done.stderr, done.stderr
     assert not out.exists()
-    rows = (tmp_path / "run.failed" / "history.csv").read_text().splitlines()
+    rows = (tmp_path / "run.partial" / "history.csv").read_text().splitlines()
     assert 10 < len(rows) < 1000  # what was written before stays
 
 
