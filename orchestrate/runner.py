@@ -60,6 +60,9 @@ NAME_MAX, PATH_MAX = 255, 4096  # bytes in one path component, and in a whole pa
 SUFFIXES = (".partial", ".failed", ".replaced")  # the run's work folders beside <out>
 RUN_FILES = (MANIFEST, FACTS, "params_used.json", "summary.json")  # what marks a folder a run wrote
 WORK_FILES = ("inputs.json", "scene.toml", "run.log", "INTERRUPTED")  # and one a run is writing
+# What a runner killed while it wrote its last files leaves: the manifest's and an image's
+# temporary files (manifest.write_manifest, outputs.created), removed when the run is continued.
+RUNNER_SCRATCH = re.compile(r"manifest\.json\.partial|\.[0-9a-f]{12}\.writing")
 
 
 class RunError(RuntimeError):
@@ -295,7 +298,8 @@ def resumable(partial: Path, inputs: dict, resume: bool, force: bool) -> str:
     if force and not (resume and continued):
         return FRESH
     kept = f"its files stay there: --force to start over (they are then deleted), or move {partial.name} away to keep them"
-    foreign = [name for name in sorted(os.listdir(partial)) if not (is_run_entry(name) or name in WORK_FILES)]
+    foreign = [name for name in sorted(os.listdir(partial))
+               if not (is_run_entry(name) or name in WORK_FILES or RUNNER_SCRATCH.fullmatch(name))]
     if foreign:
         raise RunError(f"{partial} holds {', '.join(foreign[:5])}, which no run writes: move it away, then --resume "
                        f"again; {kept}")
@@ -348,8 +352,11 @@ def differing_inputs(recorded: dict, inputs: dict) -> str:
     """Which parts of a run's inputs differ from a folder's record of them, in words."""
     if not recorded:
         return "it holds no readable inputs.json, the record of the inputs it was made from"
-    parts = [words for part, words in INPUT_PARTS.items() if recorded.get(part) != inputs.get(part)]
-    return "its " + ", ".join(parts or ["inputs"]) + " differ"
+    parts = [part for part in INPUT_PARTS if recorded.get(part) != inputs.get(part)]
+    if "scene" in parts and "freefemScene" in parts:  # the second follows from the first
+        parts.remove("freefemScene")
+    words = [INPUT_PARTS[part] for part in parts] or ["the inputs"]
+    return (", ".join(words[:-1]) + " and " if len(words) > 1 else "") + words[-1] + (" differ" if len(words) > 1 else " differs")
 
 
 def refuse_failed(failed: Path, force: bool) -> None:
@@ -414,7 +421,9 @@ def run(scene: Scene | str | Path, out: str | Path | None = None, overrides: dic
         except RunError:
             partial.rmdir()
             raise
-        (partial / "INTERRUPTED").unlink(missing_ok=True)
+        for name in os.listdir(partial):
+            if name == "INTERRUPTED" or RUNNER_SCRATCH.fullmatch(name):
+                (partial / name).unlink()
         (partial / "inputs.json").write_text(json.dumps(inputs, indent=1) + "\n")
         try:
             with signals_as_interrupt():

@@ -376,7 +376,7 @@ def test_a_resumed_run_counts_its_steps_from_its_checkpoint(tmp_path, capsys):
 def test_resume_refuses_a_partial_run_of_other_inputs(tmp_path):
     out = tmp_path / "run"
     killed_runner(out, 50)
-    with pytest.raises(RunError, match="checkpoint of a run of other inputs"):
+    with pytest.raises(RunError, match="holds a run of other inputs \\(the scene differs\\)"):
         run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0}, resume=True)
     anew = run(PEEL, out, {**PEEL_SET, "glue.gammaNu": 2.0, "time.N": 80}, resume=True, force=True)  # discarded
     assert "restartedFrom" not in json.loads((anew.folder / "run.json").read_text())

@@ -19,7 +19,7 @@ import pytest
 
 from conftest import cli_args, resealed, rows, same_results
 from orchestrate import run
-from orchestrate.freefem import FILE_PROBLEM, REPO, FileProblem
+from orchestrate.freefem import FILE_PROBLEM, REPO, FileProblem, SolverError
 from orchestrate.runner import CHECKPOINTS, RunError, checkpoint_step, sealed_checkpoint, sealed_checkpoints
 
 pytestmark = pytest.mark.runs
@@ -129,18 +129,24 @@ def test_a_resume_the_driver_refuses_leaves_the_interrupted_run_where_it_was(tmp
 
 
 def test_a_failed_run_is_kept_unless_force_replaces_it(tmp_path):
+    """A run that computed steps before it failed (euler above its elastic bound, let run: it
+    diverges) is kept; one refused before its first step leaves nothing to keep and is replaced."""
     out = tmp_path / "run"
-    with pytest.raises(Exception, match="contactMaxIt"):
-        run(PAPER, out, {**BASE, "solver.contactMaxIt": 1})
+    with pytest.raises(SolverError, match="grew from"):
+        run(PAPER, out, {**BASE, "time.N": 8, "time.T": 2.0, "solver.allowUnstable": True, "solver.divergenceFactor": 2.0})
     failed = tmp_path / "run.failed"
     before = listing(failed)
+    assert rows(failed) > 0
     for resume in (False, True):
-        with pytest.raises(RunError, match="run.failed holds a run that failed .*contactMaxIt.*move it away to keep it, "
+        with pytest.raises(RunError, match="run.failed holds a run that failed .*grew from.*move it away to keep it, "
                                            "or pass --force"):
             run(PAPER, out, BASE, resume=resume)
         assert listing(failed) == before
     run(PAPER, out, BASE, force=True)
     assert not failed.exists()
+    with pytest.raises(SolverError, match="contactMaxIt"):  # fails in its first step: nothing computed
+        run(PAPER, tmp_path / "other", {**BASE, "solver.contactMaxIt": 1})
+    assert rows(tmp_path / "other.failed") == 0 and run(PAPER, tmp_path / "other", BASE).folder.is_dir()
 
 
 def test_by_default_a_run_of_several_seconds_has_checkpoints_a_twentieth_of_its_steps_apart(tmp_path):
